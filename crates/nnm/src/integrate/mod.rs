@@ -1,0 +1,486 @@
+//! Time integration of the motion together with its sensitivities (SPEC §2).
+//!
+//! The state `z = [x; v]` obeys `z' = g(z) = [v; a(x)]`. A block of sensitivities
+//! `Φ = ∂z/∂(directions)` obeys the variational equations `Φ' = J(z(t)) Φ` with
+//! `J = [0 I; A(x) 0]`, `A = -M⁻¹(K + ∂f_nl/∂x)`. Both are advanced by the *same* embedded
+//! Runge–Kutta steps, with the variational stages evaluated at the motion's own stage states:
+//! `Φ(T)` is then the exact derivative of the discrete flow map for that step sequence
+//! ("internal differentiation"), so the shooting Jacobian and residual agree to round-off and
+//! Newton converges quadratically even at tight tolerances (SPEC §7).
+//!
+//! Step sizes are controlled on the motion only; the sensitivity pass runs after a step is
+//! accepted, so rejected steps cost no variational work.
+
+mod tableau;
+
+pub use tableau::{DOP853, DOPRI5, ErrorEstimate, Tableau};
+
+use crate::model::{Block, BlockMut, SecondOrderSystem};
+
+/// Local error tolerances: a step is accepted when the scaled error norm
+/// `‖err_i / (absolute + relative·max(|z_i|, |z_new,i|))‖_rms ≤ 1`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tolerances {
+    pub relative: f64,
+    pub absolute: f64,
+}
+
+/// How steps are chosen.
+#[derive(Debug, Clone, Copy)]
+pub enum Steps<'a> {
+    /// Error-controlled steps; `first_step` skips the initial-step heuristic.
+    Adaptive { first_step: Option<f64> },
+    /// Exactly these step sizes (e.g. a base run's, so that finite-difference perturbations
+    /// see the same discrete map).
+    Replay(&'a [f64]),
+}
+
+/// Work counters of one integration.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct IntegrationStats {
+    pub steps: usize,
+    pub rejected_steps: usize,
+    /// Evaluations of the vector field `g(z)`.
+    pub rhs_evaluations: usize,
+    /// Evaluations of the tangent `A(x)` applied to a block of directions.
+    pub tangent_evaluations: usize,
+}
+
+impl std::ops::AddAssign for IntegrationStats {
+    fn add_assign(&mut self, o: Self) {
+        self.steps += o.steps;
+        self.rejected_steps += o.rejected_steps;
+        self.rhs_evaluations += o.rhs_evaluations;
+        self.tangent_evaluations += o.tangent_evaluations;
+    }
+}
+
+/// The end state, the propagated sensitivities and how it was obtained.
+#[derive(Debug, Clone)]
+pub struct Flow {
+    /// `z(T)`.
+    pub z: Vec<f64>,
+    /// `Φ(T)`, `2n × columns`, column-major (empty when no sensitivities were asked).
+    pub sensitivity: Vec<f64>,
+    pub columns: usize,
+    /// The accepted step sizes, in order.
+    pub steps: Vec<f64>,
+    pub stats: IntegrationStats,
+}
+
+/// Why an integration failed.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum IntegrationError {
+    #[error("time integration exceeded {max_steps} steps at t = {t:.6e}")]
+    TooManySteps { max_steps: usize, t: f64 },
+    #[error("time step became too small at t = {t:.6e} (stiff or diverging motion)")]
+    StepSizeUnderflow { t: f64 },
+    #[error("the motion became non-finite at t = {t:.6e}")]
+    NotFinite { t: f64 },
+    #[error("invalid integration request: {0}")]
+    InvalidInput(String),
+}
+
+/// An explicit embedded Runge–Kutta integrator for `z' = g(z)` and its variational equations.
+/// Holds its workspace, so repeated integrations (every Newton iteration) do not allocate
+/// beyond the returned [`Flow`].
+#[derive(Debug)]
+pub struct Integrator {
+    tableau: &'static Tableau,
+    pub tolerances: Tolerances,
+    pub max_steps: usize,
+    ws: Workspace,
+}
+
+#[derive(Debug, Default)]
+struct Workspace {
+    /// Stage derivatives of the motion, `stages × 2n`.
+    k_z: Vec<f64>,
+    /// Stage states of the motion (kept for the sensitivity pass), `stages × 2n`.
+    z_stages: Vec<f64>,
+    /// Stage derivatives of the sensitivities, `stages × 2n·k`.
+    k_phi: Vec<f64>,
+    phi_stage: Vec<f64>,
+    z_new: Vec<f64>,
+}
+
+const SAFETY: f64 = 0.9;
+const MAX_GROWTH: f64 = 6.0;
+const MAX_SHRINK: f64 = 0.2;
+
+impl Integrator {
+    pub fn new(tableau: &'static Tableau, tolerances: Tolerances) -> Self {
+        Self {
+            tableau,
+            tolerances,
+            max_steps: 1_000_000,
+            ws: Workspace::default(),
+        }
+    }
+
+    pub fn tableau(&self) -> &'static Tableau {
+        self.tableau
+    }
+
+    /// Integrates `z' = g(z)` from `z0` over `duration`, and, when `sensitivity` is given
+    /// (`2n × k` initial block `Φ(0)`), the variational equations on the same steps.
+    pub fn flow<S: SecondOrderSystem + ?Sized>(
+        &mut self,
+        system: &S,
+        z0: &[f64],
+        duration: f64,
+        sensitivity: Option<Block<'_>>,
+        steps: Steps<'_>,
+    ) -> Result<Flow, IntegrationError> {
+        let n2 = 2 * system.dofs();
+        if z0.len() != n2 {
+            return Err(IntegrationError::InvalidInput(format!(
+                "state has length {}, expected {n2}",
+                z0.len()
+            )));
+        }
+        if !(duration.is_finite() && duration > 0.0) {
+            return Err(IntegrationError::InvalidInput(format!(
+                "duration must be positive, got {duration}"
+            )));
+        }
+        if z0.iter().any(|v| !v.is_finite()) {
+            return Err(IntegrationError::NotFinite { t: 0.0 });
+        }
+        let stages = self.tableau.c.len();
+        let columns = sensitivity.map_or(0, |b| b.cols);
+        let mut phi = vec![0.0; n2 * columns];
+        if let Some(b) = sensitivity {
+            if b.rows != n2 {
+                return Err(IntegrationError::InvalidInput(format!(
+                    "sensitivity block has {} rows, expected {n2}",
+                    b.rows
+                )));
+            }
+            for c in 0..columns {
+                phi[c * n2..(c + 1) * n2].copy_from_slice(b.col(c));
+            }
+        }
+        let ws = &mut self.ws;
+        ws.k_z.resize(stages * n2, 0.0);
+        ws.z_stages.resize(stages * n2, 0.0);
+        ws.k_phi.resize(stages * n2 * columns, 0.0);
+        ws.phi_stage.resize(n2 * columns, 0.0);
+        ws.z_new.resize(n2, 0.0);
+
+        let mut stats = IntegrationStats::default();
+        let mut z = z0.to_vec();
+        let mut accepted = Vec::new();
+        let mut t = 0.0;
+
+        // First stage of the first step.
+        evaluate_field(system, &z, &mut ws.k_z[..n2]);
+        stats.rhs_evaluations += 1;
+        let mut first_stage_ready = true;
+        let mut first_phi_ready = false;
+
+        let (mut h, replay) = match steps {
+            Steps::Replay(list) => (list.first().copied().unwrap_or(duration), Some(list)),
+            Steps::Adaptive { first_step: Some(h) } if h > 0.0 => (h, None),
+            Steps::Adaptive { .. } => {
+                let h = self.initial_step(system, &z, duration, &mut stats);
+                (h, None)
+            }
+        };
+        let mut last_rejected = false;
+        let mut step_index = 0usize;
+        loop {
+            let last = if let Some(list) = replay {
+                if step_index >= list.len() {
+                    break;
+                }
+                h = list[step_index];
+                step_index + 1 == list.len()
+            } else {
+                if accepted.len() >= self.max_steps {
+                    return Err(IntegrationError::TooManySteps {
+                        max_steps: self.max_steps,
+                        t,
+                    });
+                }
+                if h < 1e-14 * duration {
+                    return Err(IntegrationError::StepSizeUnderflow { t });
+                }
+                if t + 1.01 * h >= duration {
+                    h = duration - t;
+                    true
+                } else {
+                    false
+                }
+            };
+
+            // Motion stages.
+            let tab = self.tableau;
+            let ws = &mut self.ws;
+            for i in 0..stages {
+                if i == 0 && first_stage_ready {
+                    ws.z_stages[..n2].copy_from_slice(&z);
+                    continue;
+                }
+                let (done, rest) = ws.k_z.split_at_mut(i * n2);
+                let zs = &mut ws.z_stages[i * n2..(i + 1) * n2];
+                zs.copy_from_slice(&z);
+                for (j, &a) in tab.a[i].iter().enumerate() {
+                    if a != 0.0 {
+                        axpy(h * a, &done[j * n2..(j + 1) * n2], zs);
+                    }
+                }
+                evaluate_field(system, zs, &mut rest[..n2]);
+                stats.rhs_evaluations += 1;
+            }
+            ws.z_new.copy_from_slice(&z);
+            for (j, &b) in tab.b.iter().enumerate() {
+                if b != 0.0 {
+                    axpy(h * b, &ws.k_z[j * n2..(j + 1) * n2], &mut ws.z_new);
+                }
+            }
+            let finite = ws.z_new.iter().all(|v| v.is_finite());
+
+            // Step-size control (adaptive mode only).
+            if replay.is_none() {
+                let err = if finite {
+                    error_norm(tab, &self.tolerances, h, &z, &ws.z_new, &ws.k_z, n2)
+                } else {
+                    f64::INFINITY
+                };
+                let factor = if err.is_finite() && err > 0.0 {
+                    (SAFETY / err.powf(tab.controller_exponent)).clamp(MAX_SHRINK, MAX_GROWTH)
+                } else if err == 0.0 {
+                    MAX_GROWTH
+                } else {
+                    MAX_SHRINK
+                };
+                if err > 1.0 {
+                    stats.rejected_steps += 1;
+                    h *= factor.min(1.0);
+                    last_rejected = true;
+                    // The first stage (at z) stays valid.
+                    first_stage_ready = true;
+                    continue;
+                }
+                // After a rejection, do not grow at once (Hairer's safeguard against ping-pong).
+                let next = if last_rejected { h * factor.min(1.0) } else { h * factor };
+                last_rejected = false;
+                self.finish_step(system, h, columns, n2, &mut phi, first_phi_ready, &mut stats);
+                t += h;
+                accepted.push(h);
+                h = next;
+            } else {
+                if !finite {
+                    return Err(IntegrationError::NotFinite { t });
+                }
+                self.finish_step(system, h, columns, n2, &mut phi, first_phi_ready, &mut stats);
+                t += h;
+                accepted.push(h);
+                step_index += 1;
+            }
+            let ws = &mut self.ws;
+            z.copy_from_slice(&ws.z_new);
+            stats.steps += 1;
+            // Next step's first stage: reuse the last stage when it sits at the new point.
+            if tab.fsal {
+                let (head, tail) = ws.k_z.split_at_mut((stages - 1) * n2);
+                head[..n2].copy_from_slice(&tail[..n2]);
+                if columns > 0 {
+                    let m = n2 * columns;
+                    let (head, tail) = ws.k_phi.split_at_mut((stages - 1) * m);
+                    head[..m].copy_from_slice(&tail[..m]);
+                }
+                first_phi_ready = columns > 0;
+            } else {
+                evaluate_field(system, &z, &mut ws.k_z[..n2]);
+                stats.rhs_evaluations += 1;
+                first_phi_ready = false;
+            }
+            first_stage_ready = true;
+            if last {
+                break;
+            }
+        }
+        if replay.is_none() && (t - duration).abs() > 1e-12 * duration {
+            return Err(IntegrationError::InvalidInput(format!(
+                "integration stopped at t = {t} before T = {duration}"
+            )));
+        }
+        Ok(Flow {
+            z,
+            sensitivity: phi,
+            columns,
+            steps: accepted,
+            stats,
+        })
+    }
+
+    /// The sensitivity pass of an accepted step: variational stages at the stored motion
+    /// stages, then `Φ ← Φ + h Σ b_i KΦ_i`.
+    #[allow(clippy::too_many_arguments)]
+    fn finish_step<S: SecondOrderSystem + ?Sized>(
+        &mut self,
+        system: &S,
+        h: f64,
+        columns: usize,
+        n2: usize,
+        phi: &mut [f64],
+        first_phi_ready: bool,
+        stats: &mut IntegrationStats,
+    ) {
+        if columns == 0 {
+            return;
+        }
+        let tab = self.tableau;
+        let ws = &mut self.ws;
+        let m = n2 * columns;
+        for i in 0..tab.c.len() {
+            if i == 0 && first_phi_ready {
+                continue;
+            }
+            ws.phi_stage.copy_from_slice(phi);
+            let (done, rest) = ws.k_phi.split_at_mut(i * m);
+            for (j, &a) in tab.a[i].iter().enumerate() {
+                if a != 0.0 {
+                    axpy(h * a, &done[j * m..(j + 1) * m], &mut ws.phi_stage);
+                }
+            }
+            let zs = &ws.z_stages[i * n2..(i + 1) * n2];
+            variational_field(system, zs, &ws.phi_stage, columns, &mut rest[..m]);
+            stats.tangent_evaluations += 1;
+        }
+        for (j, &b) in tab.b.iter().enumerate() {
+            if b != 0.0 {
+                axpy(h * b, &ws.k_phi[j * m..(j + 1) * m], phi);
+            }
+        }
+    }
+
+    /// Hairer's starting-step heuristic (Solving ODEs I, §II.4): a step whose Euler error
+    /// estimate matches the tolerance, capped by 100× a step based on `|z|/|g(z)|`.
+    fn initial_step<S: SecondOrderSystem + ?Sized>(
+        &mut self,
+        system: &S,
+        z: &[f64],
+        duration: f64,
+        stats: &mut IntegrationStats,
+    ) -> f64 {
+        let n2 = z.len();
+        let tol = &self.tolerances;
+        let sk: Vec<f64> = z
+            .iter()
+            .map(|v| tol.absolute + tol.relative * v.abs())
+            .collect();
+        let rms = |w: &dyn Fn(usize) -> f64| -> f64 {
+            ((0..n2).map(|i| (w(i) / sk[i]).powi(2)).sum::<f64>() / n2 as f64).sqrt()
+        };
+        let f0 = self.ws.k_z[..n2].to_vec();
+        let d0 = rms(&|i| z[i]);
+        let d1 = rms(&|i| f0[i]);
+        let h0 = if d0 < 1e-10 || d1 < 1e-10 {
+            1e-6 * duration
+        } else {
+            0.01 * d0 / d1
+        };
+        let z1: Vec<f64> = (0..n2).map(|i| z[i] + h0 * f0[i]).collect();
+        let mut f1 = vec![0.0; n2];
+        evaluate_field(system, &z1, &mut f1);
+        stats.rhs_evaluations += 1;
+        let d2 = rms(&|i| f1[i] - f0[i]) / h0;
+        let order = self.tableau.order as f64;
+        let h1 = if d1.max(d2) <= 1e-15 {
+            (h0 * 1e-3).max(1e-6 * duration)
+        } else {
+            (0.01 / d1.max(d2)).powf(1.0 / (order + 1.0))
+        };
+        (100.0 * h0).min(h1).min(duration)
+    }
+}
+
+/// `g(z) = [v; a(x)]`.
+fn evaluate_field<S: SecondOrderSystem + ?Sized>(system: &S, z: &[f64], out: &mut [f64]) {
+    let n = z.len() / 2;
+    let (dx, dv) = out.split_at_mut(n);
+    dx.copy_from_slice(&z[n..]);
+    system.acceleration(&z[..n], dv);
+}
+
+/// `J(z) Φ = [Φ_v; A(x) Φ_x]` for a `2n × k` block.
+fn variational_field<S: SecondOrderSystem + ?Sized>(
+    system: &S,
+    z: &[f64],
+    phi: &[f64],
+    columns: usize,
+    out: &mut [f64],
+) {
+    let n2 = z.len();
+    let n = n2 / 2;
+    for c in 0..columns {
+        out[c * n2..c * n2 + n].copy_from_slice(&phi[c * n2 + n..(c + 1) * n2]);
+    }
+    system.acceleration_tangent(
+        &z[..n],
+        Block::new(phi, n, columns, n2),
+        BlockMut::new(&mut out[n..], n, columns, n2),
+    );
+}
+
+fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += alpha * xi;
+    }
+}
+
+/// Scaled local error of a step (Hairer's norm), including DOP853's blended estimate.
+fn error_norm(
+    tab: &Tableau,
+    tol: &Tolerances,
+    h: f64,
+    z: &[f64],
+    z_new: &[f64],
+    k: &[f64],
+    n2: usize,
+) -> f64 {
+    let scale = |i: usize| tol.absolute + tol.relative * z[i].abs().max(z_new[i].abs());
+    match &tab.error {
+        ErrorEstimate::Embedded(e) => {
+            let mut sum = 0.0;
+            for i in 0..n2 {
+                let err: f64 = e
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, w)| **w != 0.0)
+                    .map(|(j, w)| w * k[j * n2 + i])
+                    .sum();
+                sum += (h * err / scale(i)).powi(2);
+            }
+            (sum / n2 as f64).sqrt()
+        }
+        ErrorEstimate::Dop853 { fifth, third } => {
+            let (mut e5, mut e3) = (0.0, 0.0);
+            for i in 0..n2 {
+                let sk = scale(i);
+                let mut err5 = 0.0;
+                let mut bsum = 0.0;
+                for (j, (w, b)) in fifth.iter().zip(tab.b).enumerate() {
+                    let kj = k[j * n2 + i];
+                    err5 += w * kj;
+                    bsum += b * kj;
+                }
+                let err3 = bsum - third.iter().map(|&(j, w)| w * k[j * n2 + i]).sum::<f64>();
+                e5 += (err5 / sk).powi(2);
+                e3 += (err3 / sk).powi(2);
+            }
+            let denominator = if e5 + 0.01 * e3 > 0.0 {
+                e5 + 0.01 * e3
+            } else {
+                1.0
+            };
+            h.abs() * e5 * (1.0 / (n2 as f64 * denominator)).sqrt()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,182 @@
+use super::*;
+use crate::model::duffing;
+use crate::reference::{duffing_amplitude, duffing_period};
+
+fn identity(n2: usize) -> Vec<f64> {
+    (0..n2 * n2)
+        .map(|k| if k % (n2 + 1) == 0 { 1.0 } else { 0.0 })
+        .collect()
+}
+
+/// Linear oscillator: the flow and its monodromy are known in closed form.
+#[test]
+fn harmonic_oscillator_flow_and_sensitivity_are_exact() {
+    let w = 1.7;
+    let system = duffing(w, 0.0).unwrap();
+    let t = 2.3;
+    for tableau in [&DOPRI5, &DOP853] {
+        let mut integrator = Integrator::new(
+            tableau,
+            Tolerances {
+                relative: 1e-12,
+                absolute: 1e-12,
+            },
+        );
+        let eye = identity(2);
+        let flow = integrator
+            .flow(
+                &system,
+                &[0.4, -0.3],
+                t,
+                Some(Block::new(&eye, 2, 2, 2)),
+                Steps::Adaptive { first_step: None },
+            )
+            .unwrap();
+        let (c, s) = ((w * t).cos(), (w * t).sin());
+        let exact = [0.4 * c - 0.3 * s / w, -0.4 * w * s - 0.3 * c];
+        let phi = [c, -w * s, s / w, c]; // column-major
+        for i in 0..2 {
+            assert!((flow.z[i] - exact[i]).abs() < 1e-10, "{}", tableau.name);
+        }
+        for k in 0..4 {
+            assert!((flow.sensitivity[k] - phi[k]).abs() < 1e-10, "{}", tableau.name);
+        }
+    }
+}
+
+/// Convergence order on a nonlinear problem with an exact reference: Duffing released from
+/// rest returns to its initial state after the exact elliptic period. Halving a fixed step
+/// must divide the error by about 2^p.
+#[test]
+fn observed_order_matches_tableau_order() {
+    let (w0, alpha, amp) = (1.0, 1.0, 1.0);
+    let system = duffing(w0, alpha).unwrap();
+    let period = duffing_period(w0, alpha, amp);
+    for (tableau, steps) in [(&DOPRI5, 200usize), (&DOP853, 40)] {
+        let mut integrator = Integrator::new(
+            tableau,
+            Tolerances {
+                relative: 1e-10,
+                absolute: 1e-10,
+            },
+        );
+        let mut errors = vec![];
+        for n in [steps, 2 * steps] {
+            let h = vec![period / n as f64; n];
+            let flow = integrator
+                .flow(&system, &[amp, 0.0], period, None, Steps::Replay(&h))
+                .unwrap();
+            errors.push(((flow.z[0] - amp).powi(2) + flow.z[1].powi(2)).sqrt());
+        }
+        let observed = (errors[0] / errors[1]).log2();
+        let p = tableau.order as f64;
+        assert!(
+            (observed - p).abs() < 0.6,
+            "{}: observed order {observed:.2}, errors {errors:?}",
+            tableau.name
+        );
+    }
+}
+
+/// Accuracy follows the tolerance: at relative tolerance 1e-12 DOP853 returns to the start
+/// after the exact period within ~1e-10 (global error is a modest multiple of the local one).
+#[test]
+fn adaptive_accuracy_follows_tolerance() {
+    let (w0, alpha) = (1.0, 0.5);
+    let system = duffing(w0, alpha).unwrap();
+    let amp = duffing_amplitude(w0, alpha, 3.0);
+    let period = duffing_period(w0, alpha, amp);
+    for tol in [1e-8, 1e-10, 1e-12] {
+        let mut integrator = Integrator::new(
+            &DOP853,
+            Tolerances {
+                relative: tol,
+                absolute: tol * amp,
+            },
+        );
+        let flow = integrator
+            .flow(&system, &[amp, 0.0], period, None, Steps::Adaptive { first_step: None })
+            .unwrap();
+        let err = ((flow.z[0] - amp).powi(2) + flow.z[1].powi(2)).sqrt() / amp;
+        assert!(err < 100.0 * tol, "tol {tol}: relative return error {err:.2e}");
+        assert!(flow.stats.steps > 5);
+    }
+}
+
+/// The propagated sensitivities are the derivative of the discrete flow: central differences
+/// of the flow with the same (replayed) steps agree to ~1e-8.
+#[test]
+fn sensitivity_matches_finite_differences_of_the_same_discrete_map() {
+    let system = crate::model::two_dof(0.5).unwrap();
+    let z0 = [0.8, 0.5, 0.1, -0.2];
+    let mut integrator = Integrator::new(
+        &DOP853,
+        Tolerances {
+            relative: 1e-9,
+            absolute: 1e-9,
+        },
+    );
+    let eye = identity(4);
+    let base = integrator
+        .flow(
+            &system,
+            &z0,
+            5.0,
+            Some(Block::new(&eye, 4, 4, 4)),
+            Steps::Adaptive { first_step: None },
+        )
+        .unwrap();
+    let h = 1e-6;
+    for c in 0..4 {
+        let (mut zp, mut zm) = (z0, z0);
+        zp[c] += h;
+        zm[c] -= h;
+        let fp = integrator
+            .flow(&system, &zp, 5.0, None, Steps::Replay(&base.steps))
+            .unwrap();
+        let fm = integrator
+            .flow(&system, &zm, 5.0, None, Steps::Replay(&base.steps))
+            .unwrap();
+        for r in 0..4 {
+            let fd = (fp.z[r] - fm.z[r]) / (2.0 * h);
+            let exact = base.sensitivity[c * 4 + r];
+            assert!(
+                (fd - exact).abs() < 1e-8 * (1.0 + exact.abs()),
+                "column {c} row {r}: fd {fd} vs {exact}"
+            );
+        }
+    }
+}
+
+#[test]
+fn rejects_bad_requests() {
+    let system = duffing(1.0, 1.0).unwrap();
+    let mut integrator = Integrator::new(
+        &DOP853,
+        Tolerances {
+            relative: 1e-8,
+            absolute: 1e-8,
+        },
+    );
+    let adaptive = Steps::Adaptive { first_step: None };
+    assert!(matches!(
+        integrator.flow(&system, &[1.0], 1.0, None, adaptive),
+        Err(IntegrationError::InvalidInput(_))
+    ));
+    assert!(matches!(
+        integrator.flow(&system, &[1.0, 0.0], -1.0, None, adaptive),
+        Err(IntegrationError::InvalidInput(_))
+    ));
+    assert!(matches!(
+        integrator.flow(&system, &[f64::NAN, 0.0], 1.0, None, adaptive),
+        Err(IntegrationError::NotFinite { .. })
+    ));
+    // A blow-up (softening spring beyond its well) is reported, not panicked on.
+    let softening = duffing(1.0, -1.0).unwrap();
+    integrator.max_steps = 10_000;
+    assert!(
+        integrator
+            .flow(&softening, &[3.0, 0.0], 50.0, None, adaptive)
+            .is_err()
+    );
+}

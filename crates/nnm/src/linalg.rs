@@ -1,0 +1,255 @@
+//! The thin facade over `faer` (pinned; its minor releases break APIs).
+//!
+//! Every decomposition the crate uses goes through here, so a faer upgrade touches one file.
+//! faer runs sequentially (`Par::Seq`): at the sizes of a shooting Jacobian (tens to a few
+//! hundred unknowns) its 2-thread mode was measured slower on this machine (STACK.md);
+//! parallelism belongs at the outer level (independent branches).
+
+pub use faer::Mat;
+use faer::linalg::matmul::matmul;
+use faer::linalg::solvers::SolveLstsq;
+use faer::{Accum, MatRef, Par, Side};
+
+/// A complex number `(re, im)`, as returned for Floquet multipliers.
+pub type Complex = (f64, f64);
+
+/// Why a factorization failed.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum LinalgError {
+    #[error("matrix is not symmetric positive definite")]
+    NotPositiveDefinite,
+    #[error("eigenvalue iteration did not converge")]
+    NoConvergence,
+}
+
+/// Borrowed column-major view of a contiguous slice: `rows × cols`, column stride `stride`.
+pub fn view(data: &[f64], rows: usize, cols: usize, stride: usize) -> MatRef<'_, f64> {
+    MatRef::from_column_major_slice_with_stride(data, rows, cols, stride)
+}
+
+/// `dst (+)= alpha * a * b` for dense blocks stored column-major in slices.
+pub fn gemm(
+    dst: &mut [f64],
+    dst_stride: usize,
+    accumulate: bool,
+    a: MatRef<'_, f64>,
+    b: MatRef<'_, f64>,
+    alpha: f64,
+) {
+    let dst = faer::MatMut::from_column_major_slice_with_stride_mut(
+        dst,
+        a.nrows(),
+        b.ncols(),
+        dst_stride,
+    );
+    let beta = if accumulate {
+        Accum::Add
+    } else {
+        Accum::Replace
+    };
+    matmul(dst, beta, a, b, alpha, Par::Seq);
+}
+
+/// Dense product `a * b` into a new matrix.
+pub fn product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+    let mut out = Mat::zeros(a.nrows(), b.ncols());
+    matmul(out.as_mut(), Accum::Replace, a, b, 1.0, Par::Seq);
+    out
+}
+
+/// Lower Cholesky factor `L` with `A = L Lᵀ`.
+pub fn cholesky_lower(a: MatRef<'_, f64>) -> Result<Mat<f64>, LinalgError> {
+    let llt = a
+        .llt(Side::Lower)
+        .map_err(|_| LinalgError::NotPositiveDefinite)?;
+    Ok(llt.L().to_owned())
+}
+
+/// Solves `L X = B` in place for lower-triangular `L`.
+pub fn solve_lower_in_place(l: MatRef<'_, f64>, b: &mut Mat<f64>) {
+    faer::linalg::triangular_solve::solve_lower_triangular_in_place(l, b.as_mut(), Par::Seq);
+}
+
+/// Solves `Lᵀ X = B` in place for lower-triangular `L`.
+pub fn solve_lower_transpose_in_place(l: MatRef<'_, f64>, b: &mut Mat<f64>) {
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+        l.transpose(),
+        b.as_mut(),
+        Par::Seq,
+    );
+}
+
+/// Eigenvalues (ascending) and orthonormal eigenvectors of a symmetric matrix.
+pub fn symmetric_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), LinalgError> {
+    let evd = a
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|_| LinalgError::NoConvergence)?;
+    let values = evd.S().column_vector().iter().copied().collect();
+    Ok((values, evd.U().to_owned()))
+}
+
+/// Eigenvalues of a general real matrix.
+pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<Complex>, LinalgError> {
+    let values = a.eigenvalues().map_err(|_| LinalgError::NoConvergence)?;
+    Ok(values.iter().map(|z| (z.re, z.im)).collect())
+}
+
+/// Least-squares solution of `A x = b` (A with full column rank) by Householder QR.
+///
+/// This is the Moore–Penrose solution of SPEC §2 for the overdetermined corrector systems,
+/// whose extra rows (energy conservation makes one periodicity equation redundant) are
+/// consistent at a solution.
+pub fn least_squares(a: MatRef<'_, f64>, b: &[f64]) -> Vec<f64> {
+    let rhs = view(b, b.len(), 1, b.len());
+    let x = a.qr().solve_lstsq(rhs);
+    (0..a.ncols()).map(|i| x[(i, 0)]).collect()
+}
+
+/// Right singular vectors and singular values (descending) of `a`.
+pub fn singular_values_and_right_vectors(
+    a: MatRef<'_, f64>,
+) -> Result<(Vec<f64>, Mat<f64>), LinalgError> {
+    let svd = a.svd().map_err(|_| LinalgError::NoConvergence)?;
+    let values = svd.S().column_vector().iter().copied().collect();
+    Ok((values, svd.V().to_owned()))
+}
+
+/// Euclidean norm.
+pub fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// Dot product.
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// A square operator `y (+)= A x` in the cheaper of two storages: compressed rows when the
+/// matrix is sparse enough (the bladed disk's `M⁻¹K` has ≤ 4 non-zeros a row of 60), dense
+/// otherwise. Used on the integrator's hot path, so it never allocates.
+#[derive(Debug, Clone)]
+pub enum Operator {
+    Dense(Mat<f64>),
+    Sparse {
+        n: usize,
+        row_start: Vec<usize>,
+        col: Vec<usize>,
+        value: Vec<f64>,
+    },
+}
+
+impl Operator {
+    /// Chooses compressed rows when at most a quarter of the entries are non-zero.
+    pub fn new(a: &Mat<f64>) -> Self {
+        let n = a.nrows();
+        let nonzeros = (0..n)
+            .flat_map(|i| (0..a.ncols()).map(move |j| (i, j)))
+            .filter(|&(i, j)| a[(i, j)] != 0.0)
+            .count();
+        if nonzeros * 4 > n * a.ncols() || a.nrows() != a.ncols() {
+            return Operator::Dense(a.clone());
+        }
+        let mut row_start = Vec::with_capacity(n + 1);
+        let (mut col, mut value) = (Vec::new(), Vec::new());
+        row_start.push(0);
+        for i in 0..n {
+            for j in 0..n {
+                if a[(i, j)] != 0.0 {
+                    col.push(j);
+                    value.push(a[(i, j)]);
+                }
+            }
+            row_start.push(col.len());
+        }
+        Operator::Sparse {
+            n,
+            row_start,
+            col,
+            value,
+        }
+    }
+
+    /// `out[:, c] += alpha * A x[:, c]` for `cols` columns; `x` and `out` column-major with
+    /// the given column strides.
+    #[allow(clippy::too_many_arguments)]
+    pub fn apply_add(
+        &self,
+        alpha: f64,
+        x: &[f64],
+        x_stride: usize,
+        cols: usize,
+        out: &mut [f64],
+        out_stride: usize,
+    ) {
+        match self {
+            Operator::Dense(a) => {
+                let n = a.nrows();
+                gemm(
+                    out,
+                    out_stride,
+                    true,
+                    a.as_ref(),
+                    view(x, n, cols, x_stride),
+                    alpha,
+                );
+            }
+            Operator::Sparse {
+                n,
+                row_start,
+                col,
+                value,
+            } => {
+                for c in 0..cols {
+                    let xc = &x[c * x_stride..c * x_stride + n];
+                    let oc = &mut out[c * out_stride..c * out_stride + n];
+                    for (i, o) in oc.iter_mut().enumerate() {
+                        let mut s = 0.0;
+                        for k in row_start[i]..row_start[i + 1] {
+                            s += value[k] * xc[col[k]];
+                        }
+                        *o += alpha * s;
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sparse_and_dense_operator_agree() {
+        let a = Mat::from_fn(10, 10, |i, j| {
+            if i == j {
+                2.0
+            } else if i + 1 == j {
+                -1.0
+            } else {
+                0.0
+            }
+        });
+        let dense = Operator::Dense(a.clone());
+        let sparse = Operator::new(&a);
+        assert!(matches!(sparse, Operator::Sparse { .. }));
+        let x: Vec<f64> = (0..20).map(|i| (i as f64).sin()).collect();
+        let mut y1 = vec![1.0; 20];
+        let mut y2 = vec![1.0; 20];
+        dense.apply_add(-0.5, &x, 10, 2, &mut y1, 10);
+        sparse.apply_add(-0.5, &x, 10, 2, &mut y2, 10);
+        for (a, b) in y1.iter().zip(&y2) {
+            assert!((a - b).abs() < 1e-15);
+        }
+        // Against a hand computation for the first entry: 1 - 0.5 * (2 x0 - x1).
+        assert!((y1[0] - (1.0 - 0.5 * (2.0 * x[0] - x[1]))).abs() < 1e-15);
+    }
+
+    #[test]
+    fn least_squares_solves_consistent_overdetermined_system() {
+        // Three equations, two unknowns, consistent: x = (1, -2).
+        let a = Mat::from_fn(3, 2, |i, j| [[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]][i][j]);
+        let x = least_squares(a.as_ref(), &[1.0, -2.0, -1.0]);
+        assert!((x[0] - 1.0).abs() < 1e-14 && (x[1] + 2.0).abs() < 1e-14);
+    }
+}

@@ -1,0 +1,62 @@
+//! Column-major blocks of directions (`n × k`, column stride ≥ n), the currency of the
+//! variational equations. Kept independent of the linear-algebra crate so implementors of
+//! [`super::SecondOrderSystem`] need nothing but slices.
+
+/// A borrowed `rows × cols` column-major block with column stride `stride`.
+#[derive(Debug, Clone, Copy)]
+pub struct Block<'a> {
+    pub data: &'a [f64],
+    pub rows: usize,
+    pub cols: usize,
+    pub stride: usize,
+}
+
+/// The mutable counterpart of [`Block`].
+#[derive(Debug)]
+pub struct BlockMut<'a> {
+    pub data: &'a mut [f64],
+    pub rows: usize,
+    pub cols: usize,
+    pub stride: usize,
+}
+
+impl<'a> Block<'a> {
+    pub fn new(data: &'a [f64], rows: usize, cols: usize, stride: usize) -> Self {
+        debug_assert!(cols == 0 || data.len() >= (cols - 1) * stride + rows);
+        Self {
+            data,
+            rows,
+            cols,
+            stride,
+        }
+    }
+    /// Column `c`.
+    pub fn col(&self, c: usize) -> &'a [f64] {
+        &self.data[c * self.stride..c * self.stride + self.rows]
+    }
+}
+
+impl<'a> BlockMut<'a> {
+    pub fn new(data: &'a mut [f64], rows: usize, cols: usize, stride: usize) -> Self {
+        debug_assert!(cols == 0 || data.len() >= (cols - 1) * stride + rows);
+        Self {
+            data,
+            rows,
+            cols,
+            stride,
+        }
+    }
+    /// Column `c`, mutable.
+    pub fn col_mut(&mut self, c: usize) -> &mut [f64] {
+        &mut self.data[c * self.stride..c * self.stride + self.rows]
+    }
+    /// Reborrows as a shorter-lived mutable block.
+    pub fn reborrow(&mut self) -> BlockMut<'_> {
+        BlockMut {
+            data: self.data,
+            rows: self.rows,
+            cols: self.cols,
+            stride: self.stride,
+        }
+    }
+}

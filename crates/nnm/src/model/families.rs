@@ -1,0 +1,126 @@
+//! Built-in model families: the validation systems of SPEC §4 and the bladed disk of SPEC §3.
+
+use super::{CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, Structure};
+use crate::linalg::Mat;
+
+fn positive(name: &str, value: f64) -> Result<(), ModelError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(ModelError::InvalidParameter(format!(
+            "{name} must be positive and finite, got {value}"
+        )))
+    }
+}
+
+fn finite(name: &str, value: f64) -> Result<(), ModelError> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(ModelError::InvalidParameter(format!(
+            "{name} must be finite, got {value}"
+        )))
+    }
+}
+
+/// Duffing oscillator `x'' + ω₀² x + a x³ = 0` (unit mass). Its period is known exactly
+/// ([`crate::reference::duffing_period`]).
+pub fn duffing(natural_frequency: f64, cubic: f64) -> Result<Structure, ModelError> {
+    positive("natural_frequency", natural_frequency)?;
+    finite("cubic", cubic)?;
+    Structure::new(
+        Mat::from_fn(1, 1, |_, _| 1.0),
+        Mat::from_fn(1, 1, |_, _| natural_frequency * natural_frequency),
+        vec![Box::new(PolynomialSpring::cubic(0, None, cubic))],
+    )
+}
+
+/// The 2-DOF system of Kerschen et al. (2009): `x1'' + (2 x1 - x2) + c x1³ = 0`,
+/// `x2'' + (2 x2 - x1) = 0`, with `c = 0.5` in the reference.
+pub fn two_dof(cubic: f64) -> Result<Structure, ModelError> {
+    finite("cubic", cubic)?;
+    Structure::new(
+        Mat::<f64>::identity(2, 2),
+        Mat::from_fn(2, 2, |i, j| if i == j { 2.0 } else { -1.0 }),
+        vec![Box::new(PolynomialSpring::cubic(0, None, cubic))],
+    )
+}
+
+/// The nonlinear bladed disk of SPEC §3: `sectors` sectors, each a disk mass `X_i` coupled to
+/// its neighbours (cyclically) and a blade mass `x_i` attached by a linear spring plus a cubic
+/// one. Dof `2i` is the disk of sector `i`, dof `2i+1` its blade.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BladedDisk {
+    pub sectors: usize,
+    /// `M`
+    pub disk_mass: f64,
+    /// `m`
+    pub blade_mass: f64,
+    /// `K`
+    pub disk_coupling: f64,
+    /// `k`
+    pub blade_stiffness: f64,
+    /// `knl`
+    pub cubic: f64,
+}
+
+impl Default for BladedDisk {
+    /// The paper's values: 30 sectors, M = 1, m = 0.3, K = 1, k = 1, knl = 0.1.
+    fn default() -> Self {
+        Self {
+            sectors: 30,
+            disk_mass: 1.0,
+            blade_mass: 0.3,
+            disk_coupling: 1.0,
+            blade_stiffness: 1.0,
+            cubic: 0.1,
+        }
+    }
+}
+
+impl BladedDisk {
+    pub fn build(&self) -> Result<Structure, ModelError> {
+        let n_s = self.sectors;
+        if n_s < 1 {
+            return Err(ModelError::InvalidParameter(
+                "sectors must be at least 1".into(),
+            ));
+        }
+        positive("disk_mass", self.disk_mass)?;
+        positive("blade_mass", self.blade_mass)?;
+        finite("disk_coupling", self.disk_coupling)?;
+        finite("blade_stiffness", self.blade_stiffness)?;
+        finite("cubic", self.cubic)?;
+        let n = 2 * n_s;
+        let mass = Mat::from_fn(n, n, |i, j| match (i == j, i % 2) {
+            (true, 0) => self.disk_mass,
+            (true, _) => self.blade_mass,
+            _ => 0.0,
+        });
+        let mut stiffness = Mat::<f64>::zeros(n, n);
+        let mut spring = |a: usize, b: usize, k: f64| {
+            stiffness[(a, a)] += k;
+            stiffness[(b, b)] += k;
+            stiffness[(a, b)] -= k;
+            stiffness[(b, a)] -= k;
+        };
+        for i in 0..n_s {
+            let (disk, blade) = (2 * i, 2 * i + 1);
+            spring(disk, blade, self.blade_stiffness);
+            // The ring of disk springs: sector i to sector i+1 (cyclically), once each.
+            if n_s > 1 {
+                spring(disk, 2 * ((i + 1) % n_s), self.disk_coupling);
+            }
+        }
+        let elements: Vec<Box<dyn NonlinearElement>> = (0..n_s)
+            .map(|i| {
+                Box::new(PolynomialSpring::cubic(2 * i + 1, Some(2 * i), self.cubic))
+                    as Box<dyn NonlinearElement>
+            })
+            .collect();
+        Structure::new(mass, stiffness, elements)?.with_cyclic_symmetry(CyclicSymmetry {
+            sectors: n_s,
+            dofs_per_sector: 2,
+        })
+    }
+}

@@ -1,0 +1,391 @@
+//! A structure given by its mass and stiffness matrices plus nonlinear elements.
+
+use std::cell::RefCell;
+
+use super::{Block, BlockMut, NonlinearElement, SecondOrderSystem};
+use crate::linalg::{self, Mat, Operator};
+
+/// Why a model is rejected.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ModelError {
+    #[error("{name} matrix is {rows}x{cols}, expected {expected}x{expected}")]
+    WrongSize {
+        name: &'static str,
+        rows: usize,
+        cols: usize,
+        expected: usize,
+    },
+    #[error("{name} matrix has a non-finite entry at ({row}, {col})")]
+    NotFinite {
+        name: &'static str,
+        row: usize,
+        col: usize,
+    },
+    #[error("{name} matrix is not symmetric: entry ({row}, {col}) differs from ({col}, {row})")]
+    NotSymmetric {
+        name: &'static str,
+        row: usize,
+        col: usize,
+    },
+    #[error("mass matrix is not positive definite")]
+    MassNotPositiveDefinite,
+    #[error("nonlinear element {index} uses dof {dof}, but the model has {dofs} dofs")]
+    ElementDofOutOfRange {
+        index: usize,
+        dof: usize,
+        dofs: usize,
+    },
+    #[error("nonlinear element {index} is invalid: {reason}")]
+    InvalidElement { index: usize, reason: String },
+    #[error("model has no degrees of freedom")]
+    Empty,
+    #[error("invalid model parameter: {0}")]
+    InvalidParameter(String),
+}
+
+/// Cyclic symmetry of a structure made of identical sectors, with degrees of freedom numbered
+/// sector by sector (`dofs_per_sector` consecutive dofs for sector 0, then sector 1, ...).
+/// Used to label linear modes `(n, d)` and to build standing-wave shapes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CyclicSymmetry {
+    pub sectors: usize,
+    pub dofs_per_sector: usize,
+}
+
+/// `M x'' + K x + Σ f_e(x) = 0` with dense `M` (symmetric positive definite) and `K`
+/// (symmetric, possibly singular).
+///
+/// `M⁻¹K` is precomputed and stored as compressed rows when sparse (lumped-mass models), and
+/// `M⁻¹` as a diagonal when `M` is diagonal, so the integrator's inner loop neither allocates
+/// nor multiplies by zeros.
+#[derive(Debug)]
+pub struct Structure {
+    mass: Mat<f64>,
+    stiffness: Mat<f64>,
+    elements: Vec<Box<dyn NonlinearElement>>,
+    cyclic: Option<CyclicSymmetry>,
+    mass_inverse_stiffness: Operator,
+    mass_inverse: MassInverse,
+}
+
+#[derive(Debug)]
+enum MassInverse {
+    Diagonal(Vec<f64>),
+    Dense(Mat<f64>),
+}
+
+thread_local! {
+    /// Scratch for the dense-mass path only (consistent-mass models): `M⁻¹` must be applied
+    /// to the nonlinear forces after they are summed.
+    static SCRATCH: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+}
+
+impl Structure {
+    /// Validates and builds the model. Symmetry is checked to `1e-10` relative to the
+    /// largest entry (matrices read from text files carry round-off).
+    pub fn new(
+        mass: Mat<f64>,
+        stiffness: Mat<f64>,
+        elements: Vec<Box<dyn NonlinearElement>>,
+    ) -> Result<Self, ModelError> {
+        let n = mass.nrows();
+        if n == 0 {
+            return Err(ModelError::Empty);
+        }
+        for (name, m) in [("mass", &mass), ("stiffness", &stiffness)] {
+            if m.nrows() != n || m.ncols() != n {
+                return Err(ModelError::WrongSize {
+                    name,
+                    rows: m.nrows(),
+                    cols: m.ncols(),
+                    expected: n,
+                });
+            }
+            check_finite_symmetric(name, m)?;
+        }
+        for (index, e) in elements.iter().enumerate() {
+            if let Some(&dof) = e.dofs_used().iter().find(|&&d| d >= n) {
+                return Err(ModelError::ElementDofOutOfRange {
+                    index,
+                    dof,
+                    dofs: n,
+                });
+            }
+        }
+        let is_diagonal = (0..n).all(|i| (0..n).all(|j| i == j || mass[(i, j)] == 0.0));
+        let (mass_inverse, minv_k) = if is_diagonal {
+            if (0..n).any(|i| mass[(i, i)] <= 0.0) {
+                return Err(ModelError::MassNotPositiveDefinite);
+            }
+            let d: Vec<f64> = (0..n).map(|i| 1.0 / mass[(i, i)]).collect();
+            let minv_k = Mat::from_fn(n, n, |i, j| d[i] * stiffness[(i, j)]);
+            (MassInverse::Diagonal(d), minv_k)
+        } else {
+            let l = linalg::cholesky_lower(mass.as_ref())
+                .map_err(|_| ModelError::MassNotPositiveDefinite)?;
+            let mut inv = Mat::<f64>::identity(n, n);
+            linalg::solve_lower_in_place(l.as_ref(), &mut inv);
+            linalg::solve_lower_transpose_in_place(l.as_ref(), &mut inv);
+            let minv_k = linalg::product(inv.as_ref(), stiffness.as_ref());
+            (MassInverse::Dense(inv), minv_k)
+        };
+        Ok(Self {
+            mass,
+            stiffness,
+            elements,
+            cyclic: None,
+            mass_inverse_stiffness: Operator::new(&minv_k),
+            mass_inverse,
+        })
+    }
+
+    /// Declares the cyclic symmetry (sector-major dof numbering).
+    pub fn with_cyclic_symmetry(mut self, cyclic: CyclicSymmetry) -> Result<Self, ModelError> {
+        if cyclic.sectors == 0
+            || cyclic.dofs_per_sector == 0
+            || cyclic.sectors * cyclic.dofs_per_sector != self.dofs()
+        {
+            return Err(ModelError::InvalidParameter(format!(
+                "cyclic symmetry of {} sectors x {} dofs does not match the {} dofs of the model",
+                cyclic.sectors,
+                cyclic.dofs_per_sector,
+                self.dofs()
+            )));
+        }
+        self.cyclic = Some(cyclic);
+        Ok(self)
+    }
+
+    pub fn mass(&self) -> &Mat<f64> {
+        &self.mass
+    }
+    pub fn stiffness(&self) -> &Mat<f64> {
+        &self.stiffness
+    }
+    pub fn elements(&self) -> &[Box<dyn NonlinearElement>] {
+        &self.elements
+    }
+    pub fn cyclic_symmetry(&self) -> Option<CyclicSymmetry> {
+        self.cyclic
+    }
+
+    /// `f_nl(x)`, the sum of the elements' forces.
+    pub fn nonlinear_force(&self, x: &[f64], f: &mut [f64]) {
+        f.fill(0.0);
+        for e in &self.elements {
+            e.add_force(x, f);
+        }
+    }
+}
+
+fn check_finite_symmetric(name: &'static str, m: &Mat<f64>) -> Result<(), ModelError> {
+    let n = m.nrows();
+    let mut scale: f64 = 0.0;
+    for j in 0..n {
+        for i in 0..n {
+            let v = m[(i, j)];
+            if !v.is_finite() {
+                return Err(ModelError::NotFinite {
+                    name,
+                    row: i,
+                    col: j,
+                });
+            }
+            scale = scale.max(v.abs());
+        }
+    }
+    for j in 0..n {
+        for i in 0..j {
+            if (m[(i, j)] - m[(j, i)]).abs() > 1e-10 * scale {
+                return Err(ModelError::NotSymmetric {
+                    name,
+                    row: i,
+                    col: j,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+impl SecondOrderSystem for Structure {
+    fn dofs(&self) -> usize {
+        self.mass.nrows()
+    }
+
+    fn acceleration(&self, x: &[f64], a: &mut [f64]) {
+        let n = self.dofs();
+        // a = -M⁻¹ f_nl(x) - (M⁻¹K) x
+        match &self.mass_inverse {
+            MassInverse::Diagonal(d) => {
+                self.nonlinear_force(x, a);
+                for (ai, di) in a.iter_mut().zip(d) {
+                    *ai *= -di;
+                }
+            }
+            MassInverse::Dense(inv) => SCRATCH.with_borrow_mut(|f| {
+                f.resize(n, 0.0);
+                self.nonlinear_force(x, f);
+                linalg::gemm(
+                    a,
+                    n,
+                    false,
+                    inv.as_ref(),
+                    linalg::view(f, n, 1, n),
+                    -1.0,
+                );
+            }),
+        }
+        self.mass_inverse_stiffness.apply_add(-1.0, x, n, 1, a, n);
+    }
+
+    fn acceleration_tangent(&self, x: &[f64], dx: Block<'_>, mut out: BlockMut<'_>) {
+        let n = self.dofs();
+        let cols = dx.cols;
+        // out = -M⁻¹ (K_t,nl dx) - (M⁻¹K) dx
+        match &self.mass_inverse {
+            MassInverse::Diagonal(d) => {
+                for c in 0..cols {
+                    out.col_mut(c).fill(0.0);
+                }
+                for e in &self.elements {
+                    e.add_tangent_product(x, dx, &mut out);
+                }
+                for c in 0..cols {
+                    for (o, di) in out.col_mut(c).iter_mut().zip(d) {
+                        *o *= -di;
+                    }
+                }
+            }
+            MassInverse::Dense(inv) => SCRATCH.with_borrow_mut(|s| {
+                s.clear();
+                s.resize(n * cols, 0.0);
+                let mut tangent = BlockMut::new(s, n, cols, n);
+                for e in &self.elements {
+                    e.add_tangent_product(x, dx, &mut tangent);
+                }
+                linalg::gemm(
+                    out.data,
+                    out.stride,
+                    false,
+                    inv.as_ref(),
+                    linalg::view(s, n, cols, n),
+                    -1.0,
+                );
+            }),
+        }
+        self.mass_inverse_stiffness
+            .apply_add(-1.0, dx.data, dx.stride, cols, out.data, out.stride);
+    }
+
+    fn energy(&self, x: &[f64], v: &[f64]) -> f64 {
+        let n = self.dofs();
+        let mut quadratic = 0.0;
+        for j in 0..n {
+            for i in 0..n {
+                quadratic += v[i] * self.mass[(i, j)] * v[j] + x[i] * self.stiffness[(i, j)] * x[j];
+            }
+        }
+        0.5 * quadratic + self.elements.iter().map(|e| e.potential(x)).sum::<f64>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::PolynomialSpring;
+
+    fn consistent_mass_model() -> Structure {
+        let m = Mat::from_fn(3, 3, |i, j| if i == j { 2.0 } else { 0.5 });
+        let k = Mat::from_fn(3, 3, |i, j| match (i as i32 - j as i32).abs() {
+            0 => 2.0,
+            1 => -1.0,
+            _ => 0.0,
+        });
+        let elements: Vec<Box<dyn NonlinearElement>> = vec![
+            Box::new(PolynomialSpring::cubic(0, None, 0.7)),
+            Box::new(PolynomialSpring::new(1, Some(2), 0.3, 2)),
+        ];
+        Structure::new(m, k, elements).unwrap()
+    }
+
+    /// The acceleration tangent is the derivative of the acceleration (central differences),
+    /// for the dense-mass path; the diagonal path is exercised by every family test.
+    #[test]
+    fn tangent_is_derivative_of_acceleration() {
+        let s = consistent_mass_model();
+        let x = [0.3, -0.2, 0.5];
+        let mut tangent = vec![0.0; 9];
+        let eye: Vec<f64> = (0..9).map(|k| if k % 4 == 0 { 1.0 } else { 0.0 }).collect();
+        s.acceleration_tangent(
+            &x,
+            Block::new(&eye, 3, 3, 3),
+            BlockMut::new(&mut tangent, 3, 3, 3),
+        );
+        let h = 1e-6;
+        for c in 0..3 {
+            let (mut xp, mut xm) = (x, x);
+            xp[c] += h;
+            xm[c] -= h;
+            let (mut ap, mut am) = ([0.0; 3], [0.0; 3]);
+            s.acceleration(&xp, &mut ap);
+            s.acceleration(&xm, &mut am);
+            for r in 0..3 {
+                let fd = (ap[r] - am[r]) / (2.0 * h);
+                assert!((fd - tangent[c * 3 + r]).abs() < 1e-8);
+            }
+        }
+    }
+
+    #[test]
+    fn acceleration_solves_the_equation_of_motion() {
+        let s = consistent_mass_model();
+        let x = [0.3, -0.2, 0.5];
+        let mut a = [0.0; 3];
+        s.acceleration(&x, &mut a);
+        let mut f = [0.0; 3];
+        s.nonlinear_force(&x, &mut f);
+        for i in 0..3 {
+            let r: f64 = (0..3)
+                .map(|j| s.mass()[(i, j)] * a[j] + s.stiffness()[(i, j)] * x[j])
+                .sum::<f64>()
+                + f[i];
+            assert!(r.abs() < 1e-14, "residual {r}");
+        }
+    }
+
+    #[test]
+    fn rejects_bad_matrices() {
+        let k = Mat::<f64>::identity(2, 2);
+        let not_spd = Mat::from_fn(2, 2, |i, j| if i == j { 1.0 } else { 2.0 });
+        assert_eq!(
+            Structure::new(not_spd, k.clone(), vec![]).unwrap_err(),
+            ModelError::MassNotPositiveDefinite
+        );
+        let negative = Mat::from_fn(2, 2, |i, j| if i == j { -1.0 } else { 0.0 });
+        assert_eq!(
+            Structure::new(negative, k.clone(), vec![]).unwrap_err(),
+            ModelError::MassNotPositiveDefinite
+        );
+        let small = Mat::<f64>::identity(3, 3);
+        assert!(matches!(
+            Structure::new(small, k.clone(), vec![]),
+            Err(ModelError::WrongSize { .. })
+        ));
+        let unsym = Mat::from_fn(2, 2, |i, j| (i + 2 * j) as f64 + 3.0);
+        assert!(matches!(
+            Structure::new(k.clone(), unsym, vec![]),
+            Err(ModelError::NotSymmetric { .. })
+        ));
+        let nan = Mat::from_fn(2, 2, |i, j| if i == j { f64::NAN } else { 0.0 });
+        assert!(matches!(
+            Structure::new(k.clone(), nan, vec![]),
+            Err(ModelError::NotFinite { .. })
+        ));
+        let far = vec![Box::new(PolynomialSpring::cubic(5, None, 1.0)) as Box<dyn NonlinearElement>];
+        assert!(matches!(
+            Structure::new(k.clone(), k, far),
+            Err(ModelError::ElementDofOutOfRange { dof: 5, .. })
+        ));
+    }
+}
