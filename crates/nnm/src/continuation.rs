@@ -1,0 +1,584 @@
+//! Pseudo-arclength continuation of a branch of periodic motions (SPEC §2).
+//!
+//! In the unknowns `u = (q, τ)` of [`Shooting`]:
+//! - **predictor** `u_pred = u_j + s_j t_j`, with `t_j` the unit tangent, the null vector of the
+//!   shooting Jacobian `J`, obtained from the bordered system `[J; t_{j-1}ᵀ] t = [0; 1]` so
+//!   that its orientation follows the previous one;
+//! - **corrector**: Newton on `[shooting rows; t_jᵀ (u - u_pred)] = 0`, an overdetermined
+//!   system (energy conservation makes one periodicity row redundant) solved by least squares;
+//! - **convergence**: `‖H‖ / ‖z0‖ < eps`;
+//! - **step control**: the step grows when the corrector converges in few iterations, shrinks
+//!   when it needs many, and a step is retried at half size when the corrector fails or the
+//!   tangent turns by more than the allowed angle.
+//!
+//! The first point has no predictor; its corrector keeps the projection of `q` on the starting
+//! linear mode fixed, which pins the amplitude (otherwise Newton slides to the trivial
+//! zero-amplitude solution, SPEC §7).
+
+use std::ops::ControlFlow;
+
+use crate::floquet::{self, DEFAULT_STABILITY_TOLERANCE, Floquet};
+use crate::integrate::{DOP853, IntegrationError, Tableau};
+use crate::linalg::{self, Mat};
+use crate::model::{SecondOrderSystem, Structure};
+use crate::modes::LinearMode;
+use crate::shooting::{
+    Evaluation, JacobianMethod, PhaseCondition, Shooting, ShootingSettings, ShootingStats,
+};
+
+/// Continuation settings. `Default` gives the values documented on each field.
+#[derive(Debug, Clone)]
+pub struct Settings {
+    /// Convergence tolerance `eps` on `‖H‖/‖z0‖` (default 1e-8).
+    pub tolerance: f64,
+    /// Stop once a point's energy exceeds this (default +∞).
+    pub energy_max: f64,
+    /// Stop after this many points (default 500).
+    pub max_points: usize,
+    /// Stop once `frequency / linear frequency - 1` exceeds this in magnitude (default +∞).
+    pub frequency_shift_max: f64,
+    /// First step, relative to the starting amplitude `‖q0‖` (default 0.1).
+    pub initial_step: f64,
+    /// Smallest step, relative to `‖q‖`, before giving up (default 1e-6).
+    pub min_step: f64,
+    /// Largest step, relative to `‖q‖` (default 0.25: energy grows by at most ~60% a step,
+    /// which keeps a frequency-energy plot resolved).
+    pub max_step: f64,
+    /// Newton iterations allowed per step (default 8).
+    pub max_iterations: usize,
+    /// Corrector iterations the step control aims at (default 3).
+    pub target_iterations: usize,
+    /// Largest angle between consecutive tangents, radians (default 0.5 ≈ 29°).
+    pub max_turn_angle: f64,
+    /// Tolerance on `|μ| - 1` for stability (default [`DEFAULT_STABILITY_TOLERANCE`]).
+    pub stability_tolerance: f64,
+    pub phase: PhaseCondition,
+    pub jacobian: JacobianMethod,
+    pub tableau: &'static Tableau,
+    /// Integrator relative tolerance as a fraction of `tolerance` (default 1e-3: the
+    /// integration error must sit well below the periodicity residual we converge to).
+    pub integration_factor: f64,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-8,
+            energy_max: f64::INFINITY,
+            max_points: 500,
+            frequency_shift_max: f64::INFINITY,
+            initial_step: 0.1,
+            min_step: 1e-6,
+            max_step: 0.25,
+            max_iterations: 8,
+            target_iterations: 3,
+            max_turn_angle: 0.5,
+            stability_tolerance: DEFAULT_STABILITY_TOLERANCE,
+            phase: PhaseCondition::ZeroVelocity,
+            jacobian: JacobianMethod::Sensitivity,
+            tableau: &DOP853,
+            integration_factor: 1e-3,
+        }
+    }
+}
+
+/// Where a branch starts: the space of allowed initial displacements and a first guess.
+#[derive(Debug, Clone)]
+pub struct Start {
+    /// Elastic basis `B` (`n × r`, column-major, mass-orthonormal).
+    pub basis: Vec<f64>,
+    /// `M B`.
+    pub mass_basis: Vec<f64>,
+    /// Reference (linear) angular frequency of the branch.
+    pub omega: f64,
+    /// Initial guess of `z0` (length 2n).
+    pub z0: Vec<f64>,
+    /// Initial guess of the period.
+    pub period: f64,
+}
+
+/// Why a branch could not be started.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ContinuationError {
+    #[error("mode {0} is a rigid-body mode: it has no nonlinear normal mode")]
+    RigidMode(usize),
+    #[error("mode index {index} out of range (the model has {count} modes)")]
+    NoSuchMode { index: usize, count: usize },
+    #[error("invalid setting: {0}")]
+    InvalidSetting(String),
+    #[error("the first point did not converge: {0}")]
+    FirstPoint(String),
+}
+
+impl Start {
+    /// Starts on linear mode `index` scaled to the linear energy `energy`; when `energy` is
+    /// `None`, at the amplitude where the nonlinear forces are 1e-4 of the linear ones (so
+    /// the first point is nearly linear whatever the units of the model).
+    pub fn from_linear_mode(
+        structure: &Structure,
+        modes: &[LinearMode],
+        index: usize,
+        energy: Option<f64>,
+    ) -> Result<Self, ContinuationError> {
+        let mode = modes.get(index).ok_or(ContinuationError::NoSuchMode {
+            index,
+            count: modes.len(),
+        })?;
+        if mode.rigid {
+            return Err(ContinuationError::RigidMode(index));
+        }
+        let n = structure.dofs();
+        let elastic: Vec<&LinearMode> = modes.iter().filter(|m| !m.rigid).collect();
+        let basis: Vec<f64> = elastic.iter().flat_map(|m| m.shape.clone()).collect();
+        let mass = structure.mass();
+        let mut mass_basis = vec![0.0; basis.len()];
+        for (c, col) in mass_basis.chunks_mut(n).enumerate() {
+            for (i, out) in col.iter_mut().enumerate() {
+                *out = (0..n).map(|j| mass[(i, j)] * basis[c * n + j]).sum();
+            }
+        }
+        let amplitude = match energy {
+            Some(e) if e.is_finite() && e > 0.0 => (2.0 * e).sqrt() / mode.frequency,
+            Some(e) => {
+                return Err(ContinuationError::InvalidSetting(format!(
+                    "start energy must be positive, got {e}"
+                )));
+            }
+            None => weakly_nonlinear_amplitude(structure, &mode.shape, 1e-4),
+        };
+        let mut z0 = vec![0.0; 2 * n];
+        for (z, s) in z0.iter_mut().zip(&mode.shape) {
+            *z = amplitude * s;
+        }
+        Ok(Self {
+            basis,
+            mass_basis,
+            omega: mode.frequency,
+            z0,
+            period: 2.0 * std::f64::consts::PI / mode.frequency,
+        })
+    }
+}
+
+/// The amplitude `c` at which `‖f_nl(c φ)‖ = ratio ‖K c φ‖`, by bisection in `log c`
+/// (1 when the model is linear along `φ`).
+fn weakly_nonlinear_amplitude(structure: &Structure, shape: &[f64], ratio: f64) -> f64 {
+    let n = shape.len();
+    let k = structure.stiffness();
+    let k_phi: f64 = linalg::norm(
+        &(0..n)
+            .map(|i| (0..n).map(|j| k[(i, j)] * shape[j]).sum())
+            .collect::<Vec<f64>>(),
+    );
+    let nonlinear_ratio = |c: f64| {
+        let x: Vec<f64> = shape.iter().map(|s| c * s).collect();
+        let mut f = vec![0.0; n];
+        structure.nonlinear_force(&x, &mut f);
+        linalg::norm(&f) / (c * k_phi)
+    };
+    let (mut lo, mut hi) = (-12.0f64, 12.0f64);
+    if !(nonlinear_ratio(10f64.powf(hi)) > ratio) {
+        return 1.0;
+    }
+    if nonlinear_ratio(10f64.powf(lo)) > ratio {
+        return 10f64.powf(lo);
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if nonlinear_ratio(10f64.powf(mid)) > ratio {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    10f64.powf(lo)
+}
+
+/// A converged point of a branch.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BranchPoint {
+    pub index: usize,
+    /// Total energy `E(z0)`.
+    pub energy: f64,
+    /// Period `T` (s).
+    pub period: f64,
+    /// `2π / T` (rad/s).
+    pub frequency: f64,
+    /// Initial state `z0 = [x0; v0]`.
+    pub z0: Vec<f64>,
+    pub floquet: Floquet,
+    /// `‖H‖ / ‖z0‖` at convergence.
+    pub relative_residual: f64,
+    /// Newton iterations of the accepted corrector.
+    pub iterations: usize,
+    /// Arclength step that led here (0 for the first point).
+    pub step: f64,
+    /// Unknowns `u = (q, τ)` and unit tangent there (for restarts and branch switching).
+    pub unknowns: Vec<f64>,
+    pub tangent: Vec<f64>,
+}
+
+/// Why a branch ended.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(rename_all = "kebab-case", tag = "reason", content = "detail")]
+pub enum StopReason {
+    EnergyMax,
+    FrequencyShiftMax,
+    MaxPoints,
+    /// The observer asked to stop.
+    Interrupted,
+    /// The corrector failed even at the smallest step.
+    StepTooSmall(String),
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StopReason::EnergyMax => write!(f, "reached energy_max"),
+            StopReason::FrequencyShiftMax => write!(f, "reached frequency_shift_max"),
+            StopReason::MaxPoints => write!(f, "reached max_points"),
+            StopReason::Interrupted => write!(f, "interrupted"),
+            StopReason::StepTooSmall(why) => {
+                write!(f, "no convergence at the minimum step ({why})")
+            }
+        }
+    }
+}
+
+/// Work counters of a branch.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct BranchStats {
+    pub points: usize,
+    pub newton_iterations: usize,
+    pub rejected_steps: usize,
+    pub shooting: ShootingStats,
+}
+
+/// A computed branch.
+#[derive(Debug, Clone)]
+pub struct Branch {
+    pub points: Vec<BranchPoint>,
+    pub stop: StopReason,
+    pub stats: BranchStats,
+    /// Linear angular frequency of the starting mode.
+    pub omega: f64,
+}
+
+struct Corrected {
+    unknowns: Vec<f64>,
+    evaluation: Evaluation,
+    iterations: usize,
+}
+
+/// Newton corrector with one extra row `direction · (u - anchor) = 0`.
+fn correct<S: SecondOrderSystem + ?Sized>(
+    shooting: &mut Shooting<'_, S>,
+    start: &[f64],
+    direction: &[f64],
+    anchor: &[f64],
+    phase_reference: &[f64],
+    settings: &Settings,
+    newton_iterations: &mut usize,
+) -> Result<Corrected, String> {
+    let mut u = start.to_vec();
+    let mut first_residual = None;
+    for iteration in 0..=settings.max_iterations {
+        let evaluation = shooting
+            .evaluate(&u, phase_reference)
+            .map_err(|e: IntegrationError| e.to_string())?;
+        let residual = evaluation.relative_residual;
+        if !residual.is_finite() {
+            return Err("non-finite residual".into());
+        }
+        if residual < settings.tolerance {
+            return Ok(Corrected {
+                unknowns: u,
+                evaluation,
+                iterations: iteration,
+            });
+        }
+        let first = *first_residual.get_or_insert(residual);
+        if iteration == settings.max_iterations || residual > 1e3 * first.max(settings.tolerance) {
+            return Err(format!(
+                "residual {residual:.2e} after {iteration} Newton iterations"
+            ));
+        }
+        let rows = evaluation.rows.len();
+        let m = u.len();
+        let mut a = Mat::<f64>::zeros(rows + 1, m);
+        let mut b = vec![0.0; rows + 1];
+        for i in 0..rows {
+            for j in 0..m {
+                a[(i, j)] = evaluation.jacobian[(i, j)];
+            }
+            b[i] = -evaluation.rows[i];
+        }
+        for j in 0..m {
+            a[(rows, j)] = direction[j];
+        }
+        b[rows] = -direction
+            .iter()
+            .zip(u.iter().zip(anchor))
+            .map(|(d, (x, y))| d * (x - y))
+            .sum::<f64>();
+        let delta = linalg::least_squares(a.as_ref(), &b);
+        for (x, d) in u.iter_mut().zip(&delta) {
+            *x += d;
+        }
+        *newton_iterations += 1;
+        if u[m - 1] <= 0.0 {
+            return Err("the period became non-positive".into());
+        }
+    }
+    unreachable!("the loop returns at max_iterations")
+}
+
+/// Unit tangent at a converged point: `[J; previousᵀ] t = [0; 1]`, normalised.
+fn tangent(evaluation: &Evaluation, previous: &[f64]) -> Vec<f64> {
+    let rows = evaluation.rows.len();
+    let m = previous.len();
+    let mut a = Mat::<f64>::zeros(rows + 1, m);
+    for i in 0..rows {
+        for j in 0..m {
+            a[(i, j)] = evaluation.jacobian[(i, j)];
+        }
+    }
+    for j in 0..m {
+        a[(rows, j)] = previous[j];
+    }
+    let mut b = vec![0.0; rows + 1];
+    b[rows] = 1.0;
+    let mut t = linalg::least_squares(a.as_ref(), &b);
+    let norm = linalg::norm(&t);
+    t.iter_mut().for_each(|x| *x /= norm);
+    if linalg::dot(&t, previous) < 0.0 {
+        t.iter_mut().for_each(|x| *x = -*x);
+    }
+    t
+}
+
+fn amplitude_norm(u: &[f64]) -> f64 {
+    linalg::norm(&u[..u.len() - 1])
+}
+
+/// Follows the branch from `start`, calling `observer` with every converged point as soon as
+/// it is found (so a caller can write it out before the next one is attempted). The observer
+/// may stop the continuation by returning `ControlFlow::Break`.
+pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
+    system: &S,
+    start: &Start,
+    settings: &Settings,
+    mut observer: impl FnMut(&BranchPoint) -> ControlFlow<()>,
+) -> Result<Branch, ContinuationError> {
+    validate(settings)?;
+    let shooting_settings = ShootingSettings {
+        phase: settings.phase,
+        jacobian: settings.jacobian,
+        tableau: settings.tableau,
+        tolerance: settings.tolerance,
+        integration_factor: settings.integration_factor,
+    };
+    let mut shooting = Shooting::new(
+        system,
+        start.basis.clone(),
+        start.mass_basis.clone(),
+        start.omega,
+        &shooting_settings,
+    );
+    let mut stats = BranchStats::default();
+    let mut points: Vec<BranchPoint> = Vec::new();
+
+    // First point: pin the projection on the starting direction.
+    let u0 = shooting.unknowns_from_state(&start.z0, start.period);
+    let m = u0.len();
+    let q_norm = amplitude_norm(&u0);
+    if q_norm == 0.0 {
+        return Err(ContinuationError::FirstPoint(
+            "the starting state is zero".into(),
+        ));
+    }
+    let mut pin: Vec<f64> = u0.iter().map(|x| x / q_norm).collect();
+    pin[m - 1] = 0.0;
+    let first = correct(
+        &mut shooting,
+        &u0,
+        &pin,
+        &u0,
+        &start.z0,
+        settings,
+        &mut stats.newton_iterations,
+    )
+    .map_err(ContinuationError::FirstPoint)?;
+    let mut t = tangent(&first.evaluation, &pin);
+    let point = make_point(&mut shooting, &first, &t, 0, 0.0, settings)
+        .map_err(|e| ContinuationError::FirstPoint(e.to_string()))?;
+    let mut u = first.unknowns;
+    let mut phase_reference = point.z0.clone();
+    let mut step = settings.initial_step * q_norm;
+
+    let mut stop = record(point, &mut points, &mut observer, settings, start.omega);
+    while stop.is_none() {
+        let q = amplitude_norm(&u);
+        step = step.clamp(settings.min_step * q, settings.max_step * q);
+        let predicted: Vec<f64> = u.iter().zip(&t).map(|(x, d)| x + step * d).collect();
+        let outcome = correct(
+            &mut shooting,
+            &predicted,
+            &t,
+            &predicted,
+            &phase_reference,
+            settings,
+            &mut stats.newton_iterations,
+        );
+        let at_min_step = step <= settings.min_step * q * (1.0 + 1e-12);
+        let corrected = match outcome {
+            Ok(c) => c,
+            Err(why) => {
+                if at_min_step {
+                    stop = Some(StopReason::StepTooSmall(why));
+                    break;
+                }
+                stats.rejected_steps += 1;
+                step *= 0.5;
+                continue;
+            }
+        };
+        let t_new = tangent(&corrected.evaluation, &t);
+        if linalg::dot(&t_new, &t) < settings.max_turn_angle.cos() && !at_min_step {
+            stats.rejected_steps += 1;
+            step *= 0.5;
+            continue;
+        }
+        let point = match make_point(
+            &mut shooting,
+            &corrected,
+            &t_new,
+            points.len(),
+            step,
+            settings,
+        ) {
+            Ok(p) => p,
+            Err(e) => {
+                stop = Some(StopReason::StepTooSmall(e.to_string()));
+                break;
+            }
+        };
+        step *= step_factor(corrected.iterations, settings.target_iterations);
+        u = corrected.unknowns;
+        t = t_new;
+        phase_reference = point.z0.clone();
+        stop = record(point, &mut points, &mut observer, settings, start.omega);
+    }
+    stats.points = points.len();
+    stats.shooting = shooting.stats;
+    Ok(Branch {
+        points,
+        stop: stop.unwrap_or(StopReason::MaxPoints),
+        stats,
+        omega: start.omega,
+    })
+}
+
+fn validate(settings: &Settings) -> Result<(), ContinuationError> {
+    let positive = |name: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(ContinuationError::InvalidSetting(format!(
+                "{name} must be positive and finite, got {v}"
+            )))
+        }
+    };
+    positive("tolerance", settings.tolerance)?;
+    positive("initial_step", settings.initial_step)?;
+    positive("min_step", settings.min_step)?;
+    positive("max_step", settings.max_step)?;
+    positive("max_turn_angle", settings.max_turn_angle)?;
+    positive("integration_factor", settings.integration_factor)?;
+    if settings.tolerance >= 1e-2 {
+        return Err(ContinuationError::InvalidSetting(format!(
+            "tolerance {} is too loose (use < 1e-2)",
+            settings.tolerance
+        )));
+    }
+    if settings.min_step > settings.max_step {
+        return Err(ContinuationError::InvalidSetting(
+            "min_step exceeds max_step".into(),
+        ));
+    }
+    if settings.energy_max.is_nan() || settings.frequency_shift_max.is_nan() {
+        return Err(ContinuationError::InvalidSetting(
+            "stop limits must not be NaN".into(),
+        ));
+    }
+    if settings.max_points == 0 || settings.max_iterations == 0 {
+        return Err(ContinuationError::InvalidSetting(
+            "max_points and max_iterations must be at least 1".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Step growth from the corrector's effort: fewer iterations than the target → grow (up to
+/// 2×), more → shrink (down to ½×).
+fn step_factor(iterations: usize, target: usize) -> f64 {
+    let ratio = (target.max(1) as f64) / (iterations.max(1) as f64);
+    ratio.sqrt().clamp(0.5, 2.0)
+}
+
+fn make_point<S: SecondOrderSystem + ?Sized>(
+    shooting: &mut Shooting<'_, S>,
+    corrected: &Corrected,
+    tangent: &[f64],
+    index: usize,
+    step: f64,
+    settings: &Settings,
+) -> Result<BranchPoint, String> {
+    let evaluation = &corrected.evaluation;
+    let monodromy = shooting
+        .monodromy(evaluation)
+        .map_err(|e| e.to_string())?;
+    let floquet =
+        floquet::analyse(&monodromy, settings.stability_tolerance).map_err(|e| e.to_string())?;
+    Ok(BranchPoint {
+        index,
+        energy: shooting.energy(&evaluation.z0),
+        period: evaluation.period,
+        frequency: 2.0 * std::f64::consts::PI / evaluation.period,
+        z0: evaluation.z0.clone(),
+        floquet,
+        relative_residual: evaluation.relative_residual,
+        iterations: corrected.iterations,
+        step,
+        unknowns: corrected.unknowns.clone(),
+        tangent: tangent.to_vec(),
+    })
+}
+
+/// Hands the point to the observer, stores it, and says whether to stop.
+fn record(
+    point: BranchPoint,
+    points: &mut Vec<BranchPoint>,
+    observer: &mut impl FnMut(&BranchPoint) -> ControlFlow<()>,
+    settings: &Settings,
+    omega: f64,
+) -> Option<StopReason> {
+    let flow = observer(&point);
+    let energy = point.energy;
+    let shift = (point.frequency / omega - 1.0).abs();
+    points.push(point);
+    if flow.is_break() {
+        Some(StopReason::Interrupted)
+    } else if energy > settings.energy_max {
+        Some(StopReason::EnergyMax)
+    } else if shift > settings.frequency_shift_max {
+        Some(StopReason::FrequencyShiftMax)
+    } else if points.len() >= settings.max_points {
+        Some(StopReason::MaxPoints)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests;

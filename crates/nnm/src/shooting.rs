@@ -1,0 +1,376 @@
+//! The shooting problem for periodic motions (SPEC §2):
+//!
+//! `H(z0, T) = z(T; z0) - z0 = 0` plus a phase condition, with the Jacobian
+//! `∂H/∂z0 = Φ(T) - I`, `∂H/∂T = g(z(T))` from the variational equations (or, as the paper's
+//! baseline, from finite differences).
+//!
+//! **Unknowns.** Initial states are restricted to an *elastic basis* `B` (`n × r`, mass-
+//! orthonormal linear modes without the rigid-body ones): `x0 = B a` and, for the general
+//! phase condition, `v0 = ω_ref B b`. This removes the rigid-body degeneracy exactly (a rigid
+//! shift is periodic for every `T`, a rigid velocity drifts; SPEC §7) and gives modal scaling.
+//! The period enters as `τ = T / T_ref`. The unknown vector is `u = (a[, b], τ)`.
+//!
+//! **Equations.** Residual rows are weighted `W = diag(I, I/ω_ref)` so that displacement and
+//! velocity mismatches weigh alike in the least-squares corrector; the convergence test uses
+//! the unweighted `‖H‖ / ‖z0‖` of SPEC §2.
+
+use crate::integrate::{
+    Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tableau, evaluate_field as field,
+};
+use crate::linalg::{self, Mat};
+use crate::model::{Block, SecondOrderSystem};
+
+/// How the time-shift freedom of an autonomous periodic orbit is removed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PhaseCondition {
+    /// All initial velocities zero (the paper's choice for synchronous NNMs): the unknowns
+    /// are `(a, τ)` only, and the orbit starts at a turning point of every dof.
+    ZeroVelocity,
+    /// `g(z_ref)ᵀ (z0 - z_ref) = 0` with `z_ref` the previous solution: valid for any
+    /// periodic motion, including ones that never stop everywhere at once.
+    FlowOrthogonal,
+}
+
+/// How the Jacobian (and monodromy) is obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum JacobianMethod {
+    /// Variational equations integrated with the motion, on the same steps.
+    Sensitivity,
+    /// One extra integration per unknown, with the base run's steps replayed so that the
+    /// difference quotient differentiates one smooth discrete map.
+    FiniteDifference,
+}
+
+/// One evaluation of the shooting equations.
+#[derive(Debug, Clone)]
+pub struct Evaluation {
+    /// `z0` (length 2n).
+    pub z0: Vec<f64>,
+    /// `z(T)`.
+    pub z_end: Vec<f64>,
+    /// `T`.
+    pub period: f64,
+    /// `‖H‖ / ‖z0‖`, the convergence measure of SPEC §2.
+    pub relative_residual: f64,
+    /// Weighted residual rows `[W H; h]`.
+    pub rows: Vec<f64>,
+    /// Their Jacobian with respect to the unknowns `u` (`rows × (m+1)`).
+    pub jacobian: Mat<f64>,
+    /// `Φ(T) S`, the flow derivative along the unknown state directions (`2n × m`).
+    pub flow_derivative: Vec<f64>,
+    /// Accepted step sizes (replayed by finite differences).
+    pub steps: Vec<f64>,
+}
+
+/// Work counters of the shooting problem.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct ShootingStats {
+    /// Integrations of the motion (with or without sensitivities).
+    pub integrations: usize,
+    pub integration: IntegrationStats,
+}
+
+/// The shooting problem of one branch.
+#[derive(Debug)]
+pub struct Shooting<'a, S: SecondOrderSystem + ?Sized> {
+    system: &'a S,
+    n: usize,
+    /// Elastic basis `B`, `n × r` column-major.
+    basis: Vec<f64>,
+    /// `M B`, for projections onto modal coordinates (`q = (MB)ᵀ x`).
+    mass_basis: Vec<f64>,
+    r: usize,
+    phase: PhaseCondition,
+    jacobian_method: JacobianMethod,
+    omega_ref: f64,
+    period_ref: f64,
+    /// State directions of the unknowns, `2n × m`.
+    state_basis: Vec<f64>,
+    integrator: Integrator,
+    /// Ratio of the integrator's relative tolerance to the shooting tolerance.
+    integration_factor: f64,
+    first_step: Option<f64>,
+    pub stats: ShootingStats,
+}
+
+/// Settings of the shooting problem.
+#[derive(Debug, Clone)]
+pub struct ShootingSettings {
+    pub phase: PhaseCondition,
+    pub jacobian: JacobianMethod,
+    pub tableau: &'static Tableau,
+    /// The shooting tolerance `eps` (SPEC §2).
+    pub tolerance: f64,
+    /// Integrator relative tolerance = `integration_factor × tolerance`.
+    pub integration_factor: f64,
+}
+
+impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
+    /// `basis`: `n × r` column-major, mass-orthonormal; `mass_basis = M B`;
+    /// `omega_ref`, `period_ref`: scales of the branch (its linear mode).
+    pub fn new(
+        system: &'a S,
+        basis: Vec<f64>,
+        mass_basis: Vec<f64>,
+        omega_ref: f64,
+        settings: &ShootingSettings,
+    ) -> Self {
+        let n = system.dofs();
+        let r = basis.len() / n;
+        let m = match settings.phase {
+            PhaseCondition::ZeroVelocity => r,
+            PhaseCondition::FlowOrthogonal => 2 * r,
+        };
+        let mut state_basis = vec![0.0; 2 * n * m];
+        for c in 0..r {
+            state_basis[c * 2 * n..c * 2 * n + n].copy_from_slice(&basis[c * n..(c + 1) * n]);
+            if settings.phase == PhaseCondition::FlowOrthogonal {
+                let col = &mut state_basis[(r + c) * 2 * n + n..(r + c + 1) * 2 * n];
+                for (s, b) in col.iter_mut().zip(&basis[c * n..(c + 1) * n]) {
+                    *s = omega_ref * b;
+                }
+            }
+        }
+        let tolerances = crate::integrate::Tolerances {
+            relative: settings.integration_factor * settings.tolerance,
+            absolute: settings.integration_factor * settings.tolerance,
+        };
+        Self {
+            system,
+            n,
+            basis,
+            mass_basis,
+            r,
+            phase: settings.phase,
+            jacobian_method: settings.jacobian,
+            omega_ref,
+            period_ref: 2.0 * std::f64::consts::PI / omega_ref,
+            state_basis,
+            integrator: Integrator::new(settings.tableau, tolerances),
+            integration_factor: settings.integration_factor,
+            first_step: None,
+            stats: ShootingStats::default(),
+        }
+    }
+
+    pub fn system(&self) -> &'a S {
+        self.system
+    }
+
+    /// Number of unknowns `m + 1`.
+    pub fn unknowns(&self) -> usize {
+        self.state_basis.len() / (2 * self.n) + 1
+    }
+
+    pub fn phase(&self) -> PhaseCondition {
+        self.phase
+    }
+
+    /// The reference period `T_ref` (the unknown `τ` is `T / T_ref`).
+    pub fn period_ref(&self) -> f64 {
+        self.period_ref
+    }
+
+    /// `z0 = S q` for unknowns `u = (q, τ)`.
+    pub fn initial_state(&self, u: &[f64]) -> Vec<f64> {
+        let n2 = 2 * self.n;
+        let mut z0 = vec![0.0; n2];
+        for (c, &q) in u[..u.len() - 1].iter().enumerate() {
+            for (z, s) in z0.iter_mut().zip(&self.state_basis[c * n2..(c + 1) * n2]) {
+                *z += q * s;
+            }
+        }
+        z0
+    }
+
+    /// Unknowns `u` whose state is the projection of `z0` on the unknown directions.
+    pub fn unknowns_from_state(&self, z0: &[f64], period: f64) -> Vec<f64> {
+        let (n, r) = (self.n, self.r);
+        let project = |x: &[f64]| -> Vec<f64> {
+            (0..r)
+                .map(|c| linalg::dot(&self.mass_basis[c * n..(c + 1) * n], x))
+                .collect()
+        };
+        let mut u = project(&z0[..n]);
+        if self.phase == PhaseCondition::FlowOrthogonal {
+            u.extend(project(&z0[n..]).iter().map(|v| v / self.omega_ref));
+        }
+        u.push(period / self.period_ref);
+        u
+    }
+
+    /// Total energy of the motion starting at `z0`.
+    pub fn energy(&self, z0: &[f64]) -> f64 {
+        self.system.energy(&z0[..self.n], &z0[self.n..])
+    }
+
+    fn integrate(
+        &mut self,
+        z0: &[f64],
+        period: f64,
+        directions: Option<Block<'_>>,
+        steps: Steps<'_>,
+    ) -> Result<Flow, IntegrationError> {
+        let scale = z0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        self.integrator.tolerances.absolute =
+            self.integrator.tolerances.relative * scale.max(f64::MIN_POSITIVE);
+        let flow = self.integrator.flow(self.system, z0, period, directions, steps)?;
+        self.stats.integrations += 1;
+        self.stats.integration += flow.stats;
+        Ok(flow)
+    }
+
+    /// `z(T)` and `Φ(T) D` for a block of directions `D` (`2n × k`), by the configured method.
+    fn flow_with_derivative(
+        &mut self,
+        z0: &[f64],
+        period: f64,
+        directions: &[f64],
+    ) -> Result<(Flow, Vec<f64>), IntegrationError> {
+        let n2 = 2 * self.n;
+        let k = directions.len() / n2;
+        let first_step = Steps::Adaptive {
+            first_step: self.first_step,
+        };
+        match self.jacobian_method {
+            JacobianMethod::Sensitivity => {
+                let flow =
+                    self.integrate(z0, period, Some(Block::new(directions, n2, k, n2)), first_step)?;
+                self.first_step = flow.steps.first().copied();
+                let derivative = flow.sensitivity.clone();
+                Ok((flow, derivative))
+            }
+            JacobianMethod::FiniteDifference => {
+                let flow = self.integrate(z0, period, None, first_step)?;
+                self.first_step = flow.steps.first().copied();
+                let mut derivative = vec![0.0; n2 * k];
+                let z_scale = linalg::norm(z0).max(f64::MIN_POSITIVE);
+                for c in 0..k {
+                    let d = &directions[c * n2..(c + 1) * n2];
+                    // Forward difference with δ‖d‖ ≈ √ε_mach ‖z0‖: balances truncation against
+                    // round-off in the (smooth, same-steps) discrete flow map.
+                    let delta = 1e-8 * z_scale / linalg::norm(d).max(f64::MIN_POSITIVE);
+                    let zp: Vec<f64> = z0.iter().zip(d).map(|(z, d)| z + delta * d).collect();
+                    let perturbed = self.integrate(&zp, period, None, Steps::Replay(&flow.steps))?;
+                    for (i, out) in derivative[c * n2..(c + 1) * n2].iter_mut().enumerate() {
+                        *out = (perturbed.z[i] - flow.z[i]) / delta;
+                    }
+                }
+                Ok((flow, derivative))
+            }
+        }
+    }
+
+    /// Evaluates the shooting equations and their Jacobian at `u`. `phase_reference` is the
+    /// `z_ref` of [`PhaseCondition::FlowOrthogonal`] (ignored otherwise).
+    pub fn evaluate(
+        &mut self,
+        u: &[f64],
+        phase_reference: &[f64],
+    ) -> Result<Evaluation, IntegrationError> {
+        let (n, n2) = (self.n, 2 * self.n);
+        let m = u.len() - 1;
+        let period = u[m] * self.period_ref;
+        if !(period.is_finite() && period > 0.0) {
+            return Err(IntegrationError::InvalidInput(format!(
+                "non-positive period {period}"
+            )));
+        }
+        let z0 = self.initial_state(u);
+        let directions = std::mem::take(&mut self.state_basis);
+        let result = self.flow_with_derivative(&z0, period, &directions);
+        self.state_basis = directions;
+        let (flow, derivative) = result?;
+
+        let weight = |i: usize| if i < n { 1.0 } else { 1.0 / self.omega_ref };
+        let h: Vec<f64> = (0..n2).map(|i| flow.z[i] - z0[i]).collect();
+        let relative_residual = linalg::norm(&h) / linalg::norm(&z0).max(f64::MIN_POSITIVE);
+        let phase_rows = usize::from(self.phase == PhaseCondition::FlowOrthogonal);
+        let mut rows: Vec<f64> = (0..n2).map(|i| weight(i) * h[i]).collect();
+        let mut jacobian = Mat::<f64>::zeros(n2 + phase_rows, m + 1);
+        for c in 0..m {
+            let s = &self.state_basis[c * n2..(c + 1) * n2];
+            for i in 0..n2 {
+                jacobian[(i, c)] = weight(i) * (derivative[c * n2 + i] - s[i]);
+            }
+        }
+        // ∂H/∂τ = T_ref g(z(T)) = T_ref [v(T); a(x(T))].
+        let mut g_end = vec![0.0; n2];
+        field(self.system, &flow.z, &mut g_end);
+        for i in 0..n2 {
+            jacobian[(i, m)] = weight(i) * self.period_ref * g_end[i];
+        }
+        if phase_rows == 1 {
+            let mut g_ref = vec![0.0; n2];
+            field(self.system, phase_reference, &mut g_ref);
+            let norm = linalg::norm(&g_ref).max(f64::MIN_POSITIVE);
+            g_ref.iter_mut().for_each(|g| *g /= norm);
+            let offset: Vec<f64> = (0..n2).map(|i| z0[i] - phase_reference[i]).collect();
+            rows.push(linalg::dot(&g_ref, &offset));
+            for c in 0..m {
+                let s = &self.state_basis[c * n2..(c + 1) * n2];
+                jacobian[(n2, c)] = linalg::dot(&g_ref, s);
+            }
+        }
+        Ok(Evaluation {
+            z0,
+            z_end: flow.z,
+            period,
+            relative_residual,
+            rows,
+            jacobian,
+            flow_derivative: derivative,
+            steps: flow.steps,
+        })
+    }
+
+    /// The monodromy matrix restricted to the elastic state space, in modal coordinates
+    /// (`2r × 2r`): `L Φ(T) E` with `E = diag(B, B)`, `L = diag((MB)ᵀ, (MB)ᵀ)`. Rigid-body
+    /// motions decouple exactly (their block is `[[1, T], [0, 1]]`), so its eigenvalues are the
+    /// Floquet multipliers of the elastic motion. Reuses the flow derivative of `evaluation`
+    /// for the directions it already covers.
+    pub fn monodromy(&mut self, evaluation: &Evaluation) -> Result<Mat<f64>, IntegrationError> {
+        let (n, n2, r) = (self.n, 2 * self.n, self.r);
+        // Columns of Φ E: displacement directions come from the evaluation; velocity
+        // directions too for the general phase (scaled by ω_ref there), else integrate them.
+        let mut phi_e = vec![0.0; n2 * 2 * r];
+        phi_e[..n2 * r].copy_from_slice(&evaluation.flow_derivative[..n2 * r]);
+        match self.phase {
+            PhaseCondition::FlowOrthogonal => {
+                for (out, d) in phi_e[n2 * r..]
+                    .iter_mut()
+                    .zip(&evaluation.flow_derivative[n2 * r..])
+                {
+                    *out = d / self.omega_ref;
+                }
+            }
+            PhaseCondition::ZeroVelocity => {
+                let mut velocity_directions = vec![0.0; n2 * r];
+                for c in 0..r {
+                    velocity_directions[c * n2 + n..(c + 1) * n2]
+                        .copy_from_slice(&self.basis[c * n..(c + 1) * n]);
+                }
+                let (_, derivative) =
+                    self.flow_with_derivative(&evaluation.z0, evaluation.period, &velocity_directions)?;
+                phi_e[n2 * r..].copy_from_slice(&derivative);
+            }
+        }
+        let mut reduced = Mat::<f64>::zeros(2 * r, 2 * r);
+        for c in 0..2 * r {
+            let col = &phi_e[c * n2..(c + 1) * n2];
+            for k in 0..r {
+                let mb = &self.mass_basis[k * n..(k + 1) * n];
+                reduced[(k, c)] = linalg::dot(mb, &col[..n]);
+                reduced[(r + k, c)] = linalg::dot(mb, &col[n..]);
+            }
+        }
+        Ok(reduced)
+    }
+
+    /// Updates the shooting tolerance (and the integrator's, in proportion).
+    pub fn set_tolerance(&mut self, tolerance: f64) {
+        self.integrator.tolerances.relative = self.integration_factor * tolerance;
+    }
+}

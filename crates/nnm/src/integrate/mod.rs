@@ -398,8 +398,8 @@ impl Integrator {
     }
 }
 
-/// `g(z) = [v; a(x)]`.
-fn evaluate_field<S: SecondOrderSystem + ?Sized>(system: &S, z: &[f64], out: &mut [f64]) {
+/// `g(z) = [v; a(x)]`, the state-form vector field of SPEC §1.
+pub(crate) fn evaluate_field<S: SecondOrderSystem + ?Sized>(system: &S, z: &[f64], out: &mut [f64]) {
     let n = z.len() / 2;
     let (dx, dv) = out.split_at_mut(n);
     dx.copy_from_slice(&z[n..]);

@@ -1,0 +1,67 @@
+use super::*;
+use crate::model::duffing;
+use crate::modes::linear_modes;
+use crate::reference::{duffing_amplitude, duffing_period};
+
+fn backbone(structure: &Structure, mode: usize, settings: &Settings) -> Branch {
+    let modes = linear_modes(structure).unwrap();
+    let start = Start::from_linear_mode(structure, &modes, mode, None).unwrap();
+    continue_branch(structure, &start, settings, |_| ControlFlow::Continue(())).unwrap()
+}
+
+/// Worst relative frequency error of a Duffing branch against the exact elliptic period.
+fn duffing_error(branch: &Branch, w0: f64, alpha: f64) -> f64 {
+    branch
+        .points
+        .iter()
+        .map(|p| {
+            let exact = duffing_period(w0, alpha, duffing_amplitude(w0, alpha, p.energy));
+            (p.period - exact).abs() / exact
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The sharpest test of the whole chain (SPEC §4): Duffing frequency–energy against the exact
+/// elliptic-integral period, at every point from the linear limit to +55% frequency, for two
+/// parameter sets and both phase conditions.
+#[test]
+fn duffing_backbone_matches_exact_period() {
+    for (w0, alpha) in [(1.0, 1.0), (2.0, 0.3)] {
+        for phase in [PhaseCondition::ZeroVelocity, PhaseCondition::FlowOrthogonal] {
+            let settings = Settings {
+                tolerance: 1e-9,
+                frequency_shift_max: 0.55,
+                phase,
+                ..Settings::default()
+            };
+            let structure = duffing(w0, alpha).unwrap();
+            let branch = backbone(&structure, 0, &settings);
+            assert_eq!(branch.stop, StopReason::FrequencyShiftMax, "{phase:?}");
+            let shifts: Vec<f64> = branch.points.iter().map(|p| p.frequency / w0 - 1.0).collect();
+            // The branch passes the 1%, 10% and 50% marks with points on both sides.
+            for mark in [0.01, 0.1, 0.5] {
+                assert!(shifts.iter().any(|&s| s < mark) && shifts.iter().any(|&s| s > mark));
+            }
+            let error = duffing_error(&branch, w0, alpha);
+            assert!(error < 1e-7, "w0={w0} a={alpha} {phase:?}: max relative error {error:.2e}");
+            // Single dof: the only multipliers are the trivial pair.
+            assert!(branch.points.iter().all(|p| p.floquet.stable));
+        }
+    }
+}
+
+/// A job asking 1e-10 gets frequencies right to ~1e-9 or better (the tolerance drives the
+/// integrator), and a loose one stays within its own order of magnitude.
+#[test]
+fn accuracy_follows_requested_tolerance() {
+    for tolerance in [1e-6, 1e-10] {
+        let settings = Settings {
+            tolerance,
+            frequency_shift_max: 0.3,
+            ..Settings::default()
+        };
+        let branch = backbone(&duffing(1.0, 1.0).unwrap(), 0, &settings);
+        let error = duffing_error(&branch, 1.0, 1.0);
+        assert!(error < 10.0 * tolerance, "tolerance {tolerance}: error {error:.2e}");
+    }
+}
