@@ -1,1 +1,124 @@
-fn main() {}
+//! `nnm`: nonlinear normal modes from the command line (SPEC §5).
+
+mod run;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "nnm",
+    version,
+    about = "Nonlinear normal modes of structures: shooting with sensitivity analysis, \
+             pseudo-arclength continuation, Floquet stability, frequency-energy plots"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Linear modes of a model (or job) file, in ascending frequency.
+    Modes {
+        /// TOML file with a [model] section.
+        file: PathBuf,
+        /// Also write DIR/modes.csv (index,frequency_rad_s,label,pattern,rigid).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+    },
+    /// Compute every branch of a job: DIR/<name>.csv and .json per branch, DIR/fep.png/.svg.
+    Run {
+        /// Job file (TOML): [model] and [[branch]] sections.
+        job: PathBuf,
+        /// Output folder (created if missing).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Branches computed at once (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Only print the summary, not every point.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Run a built-in study end to end; its job file is written into DIR to edit and rerun.
+    Example {
+        #[command(subcommand)]
+        which: Example,
+    },
+}
+
+#[derive(Subcommand, Clone)]
+enum Example {
+    /// The paper's 30-sector nonlinear bladed disk (SPEC §3).
+    BladedDisk(ExampleArgs),
+    /// Duffing oscillator against its exact period.
+    Duffing(ExampleArgs),
+    /// The two-DOF system of Kerschen et al. (2009).
+    TwoDof(ExampleArgs),
+}
+
+#[derive(clap::Args, Clone)]
+struct ExampleArgs {
+    /// Output folder (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: std::path::PathBuf,
+}
+
+fn main() -> ExitCode {
+    // A bug must still end in one line on stderr, not a backtrace.
+    std::panic::set_hook(Box::new(|info| {
+        let message = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown".into());
+        let location = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        eprintln!("error: internal error (please report): {message}{location}");
+    }));
+    match std::panic::catch_unwind(|| execute(Cli::parse())) {
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Err(e)) => {
+            let text = format!("{e:#}").replace('\n', " ");
+            eprintln!("error: {text}");
+            ExitCode::FAILURE
+        }
+        Err(_) => ExitCode::from(101),
+    }
+}
+
+fn execute(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Modes { file, out } => run::modes(&file, out.as_deref()),
+        Command::Run {
+            job,
+            out,
+            threads,
+            quiet,
+        } => run::run_job(&job, &out, threads, quiet),
+        Command::Example { which } => {
+            let (name, text, args) = match which {
+                Example::BladedDisk(a) => (
+                    "bladed-disk",
+                    include_str!("../../../examples/bladed-disk.toml"),
+                    a,
+                ),
+                Example::Duffing(a) => ("duffing", include_str!("../../../examples/duffing.toml"), a),
+                Example::TwoDof(a) => ("two-dof", include_str!("../../../examples/two-dof.toml"), a),
+            };
+            std::fs::create_dir_all(&args.out)
+                .with_context(|| format!("cannot create {}", args.out.display()))?;
+            let job = args.out.join(format!("{name}.toml"));
+            std::fs::write(&job, text).with_context(|| format!("cannot write {}", job.display()))?;
+            eprintln!("example {name}: job file written to {}", job.display());
+            run::run_job(&job, &args.out, None, false)
+        }
+    }
+}

@@ -1,1 +1,6 @@
+//! File formats of nnm: job files (TOML), Matrix Market matrices, and result files
+//! (CSV/JSON). The numerical core (`nnm`) knows nothing of files; this crate is the bridge.
+
+pub mod job;
 pub mod matrix_market;
+pub mod output;

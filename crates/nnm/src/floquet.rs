@@ -42,7 +42,8 @@ pub fn analyse(monodromy: &Mat<f64>, tolerance: f64) -> Result<Floquet, LinalgEr
     let max_modulus = (0..multipliers.len())
         .filter(|k| !trivial.contains(k))
         .map(|k| modulus(&multipliers[k]))
-        .fold(1.0f64, f64::max);
+        .reduce(f64::max)
+        .unwrap_or(1.0);
     Ok(Floquet {
         stable: max_modulus <= 1.0 + tolerance,
         multipliers,

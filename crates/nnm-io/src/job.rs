@@ -1,0 +1,485 @@
+//! Job files (TOML, SPEC §5): the model, and the branches to compute.
+//!
+//! ```toml
+//! [model]
+//! family = "bladed-disk"          # or "duffing", "two-dof"; omit for a general model
+//! sectors = 30
+//!
+//! [settings]                      # optional defaults for every branch
+//! tolerance = 1e-8
+//!
+//! [[branch]]
+//! name = "mode-1-5"
+//! mode = "1,5"                    # label "n,d", or 0-based index into the ascending modes
+//! energy_max = 10.0
+//! ```
+//!
+//! Unknown keys are errors (a typo must not silently fall back to a default), and every error
+//! is one line naming the file and, where it can, the line and column.
+
+use std::path::{Path, PathBuf};
+
+use nnm::continuation::Settings;
+use nnm::integrate::{DOP853, DOPRI5};
+use nnm::linalg::Mat;
+use nnm::model::{
+    BladedDisk, CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, Structure,
+    duffing, two_dof,
+};
+use nnm::modes::StandingWave;
+use nnm::shooting::{JacobianMethod, PhaseCondition};
+use serde::Deserialize;
+
+use crate::matrix_market::{MatrixMarketError, read_matrix_market};
+
+/// Why a job file was rejected.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    #[error("cannot read {path}: {reason}")]
+    Read { path: PathBuf, reason: String },
+    #[error("{path}:{line}:{column}: {message}")]
+    Syntax {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+    #[error("{path}: invalid model: {source}")]
+    Model {
+        path: PathBuf,
+        #[source]
+        source: ModelError,
+    },
+    #[error("{0}")]
+    Matrix(#[from] MatrixMarketError),
+}
+
+/// A parsed job: the model and the branches asked for.
+#[derive(Debug)]
+pub struct Job {
+    pub structure: Structure,
+    /// The model family (`"bladed-disk"`, `"duffing"`, `"two-dof"`, or `"general"`).
+    pub family: String,
+    pub branches: Vec<BranchJob>,
+}
+
+/// One branch to compute.
+#[derive(Debug, Clone)]
+pub struct BranchJob {
+    pub name: String,
+    /// Mode label `"n,d"` or index, as written.
+    pub mode: String,
+    pub pattern: Option<StandingWave>,
+    /// Linear energy of the starting guess (`None`: chosen from the nonlinearity's size).
+    pub energy_start: Option<f64>,
+    pub settings: Settings,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JobFile {
+    model: ModelSpec,
+    #[serde(default)]
+    settings: Option<toml::Table>,
+    #[serde(default)]
+    branch: Vec<toml::Table>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelSpec {
+    family: Option<String>,
+    sectors: Option<usize>,
+    disk_mass: Option<f64>,
+    blade_mass: Option<f64>,
+    disk_coupling: Option<f64>,
+    blade_stiffness: Option<f64>,
+    cubic: Option<f64>,
+    natural_frequency: Option<f64>,
+    mass: Option<MatrixSpec>,
+    stiffness: Option<MatrixSpec>,
+    #[serde(default)]
+    nonlinear: Vec<ElementSpec>,
+    cyclic: Option<CyclicSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum MatrixSpec {
+    Rows(Vec<Vec<f64>>),
+    File { file: String },
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ElementSpec {
+    #[serde(rename = "type")]
+    kind: String,
+    dofs: Vec<usize>,
+    coefficient: f64,
+    exponent: Option<u32>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CyclicSpec {
+    sectors: usize,
+    dofs_per_sector: usize,
+}
+
+/// Branch options, settable per branch or in `[settings]` for all.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Options {
+    energy_max: Option<f64>,
+    frequency_shift_max: Option<f64>,
+    max_points: Option<usize>,
+    tolerance: Option<f64>,
+    energy_start: Option<f64>,
+    initial_step: Option<f64>,
+    min_step: Option<f64>,
+    max_step: Option<f64>,
+    max_iterations: Option<usize>,
+    max_turn_angle: Option<f64>,
+    stability_tolerance: Option<f64>,
+    integration_factor: Option<f64>,
+    jacobian: Option<JacobianMethod>,
+    phase: Option<PhaseCondition>,
+    integrator: Option<String>,
+}
+
+impl Options {
+    /// `self` overrides `defaults` key by key.
+    fn or(self, defaults: &Options) -> Options {
+        Options {
+            energy_max: self.energy_max.or(defaults.energy_max),
+            frequency_shift_max: self.frequency_shift_max.or(defaults.frequency_shift_max),
+            max_points: self.max_points.or(defaults.max_points),
+            tolerance: self.tolerance.or(defaults.tolerance),
+            energy_start: self.energy_start.or(defaults.energy_start),
+            initial_step: self.initial_step.or(defaults.initial_step),
+            min_step: self.min_step.or(defaults.min_step),
+            max_step: self.max_step.or(defaults.max_step),
+            max_iterations: self.max_iterations.or(defaults.max_iterations),
+            max_turn_angle: self.max_turn_angle.or(defaults.max_turn_angle),
+            stability_tolerance: self.stability_tolerance.or(defaults.stability_tolerance),
+            integration_factor: self.integration_factor.or(defaults.integration_factor),
+            jacobian: self.jacobian.or(defaults.jacobian),
+            phase: self.phase.or(defaults.phase),
+            integrator: self.integrator.clone().or(defaults.integrator.clone()),
+        }
+    }
+
+    fn settings(&self) -> Result<Settings, String> {
+        let d = Settings::default();
+        let tableau = match self.integrator.as_deref() {
+            None | Some("dop853") => &DOP853,
+            Some("dopri5") => &DOPRI5,
+            Some(other) => {
+                return Err(format!(
+                    "unknown integrator `{other}` (expected \"dop853\" or \"dopri5\")"
+                ));
+            }
+        };
+        Ok(Settings {
+            tolerance: self.tolerance.unwrap_or(d.tolerance),
+            energy_max: self.energy_max.unwrap_or(d.energy_max),
+            max_points: self.max_points.unwrap_or(d.max_points),
+            frequency_shift_max: self.frequency_shift_max.unwrap_or(d.frequency_shift_max),
+            initial_step: self.initial_step.unwrap_or(d.initial_step),
+            min_step: self.min_step.unwrap_or(d.min_step),
+            max_step: self.max_step.unwrap_or(d.max_step),
+            max_iterations: self.max_iterations.unwrap_or(d.max_iterations),
+            target_iterations: d.target_iterations,
+            max_turn_angle: self.max_turn_angle.unwrap_or(d.max_turn_angle),
+            stability_tolerance: self.stability_tolerance.unwrap_or(d.stability_tolerance),
+            phase: self.phase.unwrap_or(d.phase),
+            jacobian: self.jacobian.unwrap_or(d.jacobian),
+            tableau,
+            integration_factor: self.integration_factor.unwrap_or(d.integration_factor),
+        })
+    }
+}
+
+/// Reads and validates a job file. Matrix files are resolved relative to the job's folder.
+pub fn load_job(path: &Path) -> Result<Job, JobError> {
+    let text = std::fs::read_to_string(path).map_err(|e| JobError::Read {
+        path: path.to_owned(),
+        reason: io_reason(&e),
+    })?;
+    parse_job(&text, path)
+}
+
+/// Parses a job from text; `path` names it in errors and anchors relative matrix files.
+pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
+    let file: JobFile = toml::from_str(text).map_err(|e| syntax_error(&e, text, path))?;
+    let invalid = |message: String| JobError::Invalid {
+        path: path.to_owned(),
+        message,
+    };
+    let base = path.parent().unwrap_or(Path::new("."));
+    let (structure, family) = build_model(&file.model, base, path)?;
+
+    let defaults: Options = match file.settings {
+        Some(table) => table
+            .try_into()
+            .map_err(|e: toml::de::Error| invalid(format!("[settings]: {}", e.message())))?,
+        None => Options::default(),
+    };
+    let mut branches = Vec::new();
+    for (k, mut table) in file.branch.into_iter().enumerate() {
+        let context = |what: &str| format!("branch {}: {what}", k + 1);
+        let name = match table.remove("name") {
+            Some(toml::Value::String(s)) => s,
+            Some(_) => return Err(invalid(context("`name` must be a string"))),
+            None => return Err(invalid(context("missing `name`"))),
+        };
+        let valid_name = !name.is_empty()
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+            && !name.starts_with('.');
+        if !valid_name {
+            return Err(invalid(context(&format!(
+                "name `{name}` must be non-empty and use only letters, digits, '-', '_', '.'"
+            ))));
+        }
+        if branches.iter().any(|b: &BranchJob| b.name == name) {
+            return Err(invalid(format!("duplicate branch name `{name}`")));
+        }
+        let mode = match table.remove("mode") {
+            Some(toml::Value::String(s)) => s,
+            Some(toml::Value::Integer(i)) if i >= 0 => i.to_string(),
+            Some(_) => {
+                return Err(invalid(context(
+                    "`mode` must be a label \"n,d\" or a non-negative index",
+                )));
+            }
+            None => return Err(invalid(context("missing `mode`"))),
+        };
+        let pattern = match table.remove("pattern") {
+            None => None,
+            Some(toml::Value::String(s)) if s == "cos" => Some(StandingWave::Cos),
+            Some(toml::Value::String(s)) if s == "sin" => Some(StandingWave::Sin),
+            Some(_) => return Err(invalid(context("`pattern` must be \"cos\" or \"sin\""))),
+        };
+        let options: Options = table
+            .try_into()
+            .map_err(|e: toml::de::Error| invalid(context(e.message())))?;
+        let options = options.or(&defaults);
+        let settings = options.settings().map_err(|m| invalid(context(&m)))?;
+        if options.energy_max.is_none()
+            && options.frequency_shift_max.is_none()
+            && options.max_points.is_none()
+        {
+            return Err(invalid(context(
+                "give a stop limit: `energy_max`, `frequency_shift_max` or `max_points`",
+            )));
+        }
+        branches.push(BranchJob {
+            name,
+            mode,
+            pattern,
+            energy_start: options.energy_start,
+            settings,
+        });
+    }
+    Ok(Job {
+        structure,
+        family,
+        branches,
+    })
+}
+
+fn build_model(
+    spec: &ModelSpec,
+    base: &Path,
+    path: &Path,
+) -> Result<(Structure, String), JobError> {
+    let invalid = |message: String| JobError::Invalid {
+        path: path.to_owned(),
+        message,
+    };
+    let model_error = |source: ModelError| JobError::Model {
+        path: path.to_owned(),
+        source,
+    };
+    let family = spec.family.clone().unwrap_or_else(|| "general".into());
+    // Keys that only make sense for some families must not be silently ignored.
+    let given: Vec<(&str, bool)> = vec![
+        ("sectors", spec.sectors.is_some()),
+        ("disk_mass", spec.disk_mass.is_some()),
+        ("blade_mass", spec.blade_mass.is_some()),
+        ("disk_coupling", spec.disk_coupling.is_some()),
+        ("blade_stiffness", spec.blade_stiffness.is_some()),
+        ("cubic", spec.cubic.is_some()),
+        ("natural_frequency", spec.natural_frequency.is_some()),
+        ("mass", spec.mass.is_some()),
+        ("stiffness", spec.stiffness.is_some()),
+        ("nonlinear", !spec.nonlinear.is_empty()),
+        ("cyclic", spec.cyclic.is_some()),
+    ];
+    let allowed: &[&str] = match family.as_str() {
+        "bladed-disk" => &[
+            "sectors",
+            "disk_mass",
+            "blade_mass",
+            "disk_coupling",
+            "blade_stiffness",
+            "cubic",
+        ],
+        "duffing" => &["natural_frequency", "cubic"],
+        "two-dof" => &["cubic"],
+        "general" => &["mass", "stiffness", "nonlinear", "cyclic"],
+        other => {
+            return Err(invalid(format!(
+                "unknown model family `{other}` (expected \"bladed-disk\", \"duffing\", \"two-dof\", or no family with mass and stiffness)"
+            )));
+        }
+    };
+    if let Some((key, _)) = given.iter().find(|(k, g)| *g && !allowed.contains(k)) {
+        return Err(invalid(format!(
+            "[model] key `{key}` does not apply to family `{family}`"
+        )));
+    }
+    let structure = match family.as_str() {
+        "bladed-disk" => {
+            let d = BladedDisk::default();
+            BladedDisk {
+                sectors: spec.sectors.unwrap_or(d.sectors),
+                disk_mass: spec.disk_mass.unwrap_or(d.disk_mass),
+                blade_mass: spec.blade_mass.unwrap_or(d.blade_mass),
+                disk_coupling: spec.disk_coupling.unwrap_or(d.disk_coupling),
+                blade_stiffness: spec.blade_stiffness.unwrap_or(d.blade_stiffness),
+                cubic: spec.cubic.unwrap_or(d.cubic),
+            }
+            .build()
+            .map_err(model_error)?
+        }
+        "duffing" => duffing(
+            spec.natural_frequency.unwrap_or(1.0),
+            spec.cubic.unwrap_or(1.0),
+        )
+        .map_err(model_error)?,
+        "two-dof" => two_dof(spec.cubic.unwrap_or(0.5)).map_err(model_error)?,
+        _ => {
+            let mass = spec
+                .mass
+                .as_ref()
+                .ok_or_else(|| invalid("[model] needs `mass` (or a `family`)".into()))?;
+            let stiffness = spec
+                .stiffness
+                .as_ref()
+                .ok_or_else(|| invalid("[model] needs `stiffness`".into()))?;
+            let mass = load_matrix(mass, "mass", base, path)?;
+            let stiffness = load_matrix(stiffness, "stiffness", base, path)?;
+            let elements = spec
+                .nonlinear
+                .iter()
+                .enumerate()
+                .map(|(k, e)| build_element(e).map_err(|m| invalid(format!("nonlinear element {}: {m}", k + 1))))
+                .collect::<Result<Vec<_>, _>>()?;
+            let structure = Structure::new(mass, stiffness, elements).map_err(model_error)?;
+            match &spec.cyclic {
+                Some(c) => structure
+                    .with_cyclic_symmetry(CyclicSymmetry {
+                        sectors: c.sectors,
+                        dofs_per_sector: c.dofs_per_sector,
+                    })
+                    .map_err(model_error)?,
+                None => structure,
+            }
+        }
+    };
+    Ok((structure, family))
+}
+
+fn build_element(spec: &ElementSpec) -> Result<Box<dyn NonlinearElement>, String> {
+    let exponent = match (spec.kind.as_str(), spec.exponent) {
+        ("cubic", None | Some(3)) => 3,
+        ("cubic", Some(p)) => return Err(format!("a cubic element has exponent 3, not {p}")),
+        ("polynomial", Some(p)) if p >= 2 => p,
+        ("polynomial", Some(p)) => return Err(format!("exponent must be at least 2, got {p}")),
+        ("polynomial", None) => return Err("a polynomial element needs `exponent`".into()),
+        (other, _) => {
+            return Err(format!(
+                "unknown type `{other}` (expected \"cubic\" or \"polynomial\")"
+            ));
+        }
+    };
+    if !spec.coefficient.is_finite() {
+        return Err(format!("coefficient must be finite, got {}", spec.coefficient));
+    }
+    let (i, j) = match spec.dofs.as_slice() {
+        [i] => (*i, None),
+        [i, j] if i != j => (*i, Some(*j)),
+        [_, _] => return Err("`dofs` must name two different dofs".into()),
+        _ => return Err("`dofs` must be [i] (to ground) or [i, j]".into()),
+    };
+    Ok(Box::new(PolynomialSpring::new(
+        i,
+        j,
+        spec.coefficient,
+        exponent,
+    )))
+}
+
+fn load_matrix(
+    spec: &MatrixSpec,
+    name: &str,
+    base: &Path,
+    path: &Path,
+) -> Result<Mat<f64>, JobError> {
+    match spec {
+        MatrixSpec::Rows(rows) => {
+            let n = rows.len();
+            if let Some((i, row)) = rows.iter().enumerate().find(|(_, r)| r.len() != n) {
+                return Err(JobError::Invalid {
+                    path: path.to_owned(),
+                    message: format!(
+                        "{name} matrix row {} has {} entries, expected {n} (a square matrix)",
+                        i + 1,
+                        row.len()
+                    ),
+                });
+            }
+            Ok(Mat::from_fn(n, n, |i, j| rows[i][j]))
+        }
+        MatrixSpec::File { file } => {
+            let m = read_matrix_market(&base.join(file))?;
+            Ok(Mat::from_fn(m.rows, m.cols, |i, j| m.get(i, j)))
+        }
+    }
+}
+
+/// One-line message of an I/O error (without the "(os error N)" suffix).
+pub(crate) fn io_reason(e: &std::io::Error) -> String {
+    let s = e.to_string();
+    match s.find(" (os error") {
+        Some(k) => s[..k].to_string(),
+        None => s,
+    }
+}
+
+fn syntax_error(e: &toml::de::Error, text: &str, path: &Path) -> JobError {
+    let (line, column) = e
+        .span()
+        .map(|span| {
+            let before = &text[..span.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.len() - before.rfind('\n').map_or(0, |k| k + 1) + 1;
+            (line, column)
+        })
+        .unwrap_or((1, 1));
+    JobError::Syntax {
+        path: path.to_owned(),
+        line,
+        column,
+        message: e.message().lines().next().unwrap_or("syntax error").to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests;
