@@ -66,6 +66,9 @@ struct ExampleArgs {
     /// Output folder (created if missing).
     #[arg(long, value_name = "DIR")]
     out: std::path::PathBuf,
+    /// Only print the summary, not every point.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 fn main() -> ExitCode {
@@ -110,15 +113,20 @@ fn execute(cli: Cli) -> Result<()> {
                     include_str!("../../../examples/bladed-disk.toml"),
                     a,
                 ),
-                Example::Duffing(a) => ("duffing", include_str!("../../../examples/duffing.toml"), a),
-                Example::TwoDof(a) => ("two-dof", include_str!("../../../examples/two-dof.toml"), a),
+                Example::Duffing(a) => {
+                    ("duffing", include_str!("../../../examples/duffing.toml"), a)
+                }
+                Example::TwoDof(a) => {
+                    ("two-dof", include_str!("../../../examples/two-dof.toml"), a)
+                }
             };
             std::fs::create_dir_all(&args.out)
                 .with_context(|| format!("cannot create {}", args.out.display()))?;
             let job = args.out.join(format!("{name}.toml"));
-            std::fs::write(&job, text).with_context(|| format!("cannot write {}", job.display()))?;
+            std::fs::write(&job, text)
+                .with_context(|| format!("cannot write {}", job.display()))?;
             eprintln!("example {name}: job file written to {}", job.display());
-            run::run_job(&job, &args.out, None, false)
+            run::run_job(&job, &args.out, None, args.quiet)
         }
     }
 }

@@ -16,14 +16,22 @@ use rayon::prelude::*;
 pub fn modes(file: &Path, out: Option<&Path>) -> Result<()> {
     let job = load_job(file)?;
     let modes = linear_modes(&job.structure).context("modal analysis failed")?;
-    println!("{:>5}  {:>16}  {:>6}  {:>7}", "index", "frequency_rad_s", "label", "pattern");
+    println!(
+        "{:>5}  {:>16}  {:>6}  {:>7}",
+        "index", "frequency_rad_s", "label", "pattern"
+    );
     for (k, m) in modes.iter().enumerate() {
         let pattern = match m.cyclic.and_then(|c| c.pattern) {
             Some(p) => format!("{p:?}").to_lowercase(),
             None if m.rigid => "rigid".into(),
             None => String::new(),
         };
-        println!("{k:>5}  {:>16.9}  {:>6}  {:>7}", m.frequency, m.label(), pattern);
+        println!(
+            "{k:>5}  {:>16.9}  {:>6}  {:>7}",
+            m.frequency,
+            m.label(),
+            pattern
+        );
     }
     if let Some(dir) = out {
         create_dir(dir)?;
@@ -90,7 +98,10 @@ struct Outcome {
 pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool) -> Result<()> {
     let job = load_job(job_path)?;
     if job.branches.is_empty() {
-        bail!("{}: the job has no [[branch]] to compute", job_path.display());
+        bail!(
+            "{}: the job has no [[branch]] to compute",
+            job_path.display()
+        );
     }
     let modes = linear_modes(&job.structure).context("modal analysis failed")?;
     let resolved = resolve(&job, &modes)?;
@@ -120,7 +131,9 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     });
 
     plot(&outcomes, out)?;
-    eprintln!();
+    if !quiet {
+        eprintln!();
+    }
     println!(
         "{:<16} {:>6} {:>7} {:>11} {:>11} {:>10} {:>8}  stop",
         "branch", "mode", "points", "E_max", "f_max", "shift", "time_s"
@@ -131,7 +144,11 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
             Ok(branch) => {
                 let last = branch.points.last();
                 let (e, f) = last.map_or((f64::NAN, f64::NAN), |p| (p.energy, p.frequency));
-                let e_max = branch.points.iter().map(|p| p.energy).fold(f64::NAN, f64::max);
+                let e_max = branch
+                    .points
+                    .iter()
+                    .map(|p| p.energy)
+                    .fold(f64::NAN, f64::max);
                 println!(
                     "{:<16} {:>6} {:>7} {:>11.4e} {:>11.6} {:>9.2}% {:>8.2}  {}",
                     o.info.name,
@@ -209,7 +226,11 @@ fn compute_branch(
                 p.energy,
                 p.frequency,
                 100.0 * (p.frequency / info.linear_frequency_rad_s - 1.0),
-                if p.floquet.stable { "stable  " } else { "unstable" },
+                if p.floquet.stable {
+                    "stable  "
+                } else {
+                    "unstable"
+                },
                 p.floquet.max_modulus
             );
         }

@@ -23,8 +23,8 @@ use nnm::continuation::Settings;
 use nnm::integrate::{DOP853, DOPRI5};
 use nnm::linalg::Mat;
 use nnm::model::{
-    BladedDisk, CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, Structure,
-    duffing, two_dof,
+    BladedDisk, CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, Structure, duffing,
+    two_dof,
 };
 use nnm::modes::StandingWave;
 use nnm::shooting::{JacobianMethod, PhaseCondition};
@@ -270,6 +270,9 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
             .map_err(|e: toml::de::Error| invalid(context(e.message())))?;
         let options = options.or(&defaults);
         let settings = options.settings().map_err(|m| invalid(context(&m)))?;
+        settings
+            .validate()
+            .map_err(|e| invalid(context(&e.to_string())))?;
         if options.energy_max.is_none()
             && options.frequency_shift_max.is_none()
             && options.max_points.is_none()
@@ -379,7 +382,10 @@ fn build_model(
                 .nonlinear
                 .iter()
                 .enumerate()
-                .map(|(k, e)| build_element(e).map_err(|m| invalid(format!("nonlinear element {}: {m}", k + 1))))
+                .map(|(k, e)| {
+                    build_element(e)
+                        .map_err(|m| invalid(format!("nonlinear element {}: {m}", k + 1)))
+                })
                 .collect::<Result<Vec<_>, _>>()?;
             let structure = Structure::new(mass, stiffness, elements).map_err(model_error)?;
             match &spec.cyclic {
@@ -410,7 +416,10 @@ fn build_element(spec: &ElementSpec) -> Result<Box<dyn NonlinearElement>, String
         }
     };
     if !spec.coefficient.is_finite() {
-        return Err(format!("coefficient must be finite, got {}", spec.coefficient));
+        return Err(format!(
+            "coefficient must be finite, got {}",
+            spec.coefficient
+        ));
     }
     let (i, j) = match spec.dofs.as_slice() {
         [i] => (*i, None),
@@ -477,7 +486,12 @@ fn syntax_error(e: &toml::de::Error, text: &str, path: &Path) -> JobError {
         path: path.to_owned(),
         line,
         column,
-        message: e.message().lines().next().unwrap_or("syntax error").to_string(),
+        message: e
+            .message()
+            .lines()
+            .next()
+            .unwrap_or("syntax error")
+            .to_string(),
     }
 }
 

@@ -106,7 +106,12 @@ impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
             iterations: p.iterations,
             step: p.step,
             z0: &p.z0,
-            multipliers: p.floquet.multipliers.iter().map(|&(re, im)| [re, im]).collect(),
+            multipliers: p
+                .floquet
+                .multipliers
+                .iter()
+                .map(|&(re, im)| [re, im])
+                .collect(),
             trivial_multipliers: p.floquet.trivial,
         }
     }

@@ -25,8 +25,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..Settings::default()
     };
     let clock = Instant::now();
-    println!("mode ({label}), linear frequency {:.6} rad/s", mode.frequency);
-    println!("{:>12} {:>12} {:>8} {:>10} {:>5}", "energy", "frequency", "shift", "max|mu|", "iter");
+    println!(
+        "mode ({label}), linear frequency {:.6} rad/s",
+        mode.frequency
+    );
+    println!(
+        "{:>12} {:>12} {:>8} {:>10} {:>5}",
+        "energy", "frequency", "shift", "max|mu|", "iter"
+    );
     let branch = continue_branch(&structure, &start, &settings, |p| {
         println!(
             "{:12.5e} {:12.8} {:7.3}% {:10.6} {:5}",

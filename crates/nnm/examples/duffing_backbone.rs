@@ -19,7 +19,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         frequency_shift_max: 0.6,
         ..Settings::default()
     };
-    println!("{:>12} {:>12} {:>12} {:>5}", "energy", "frequency", "rel. error", "iter");
+    println!(
+        "{:>12} {:>12} {:>12} {:>5}",
+        "energy", "frequency", "rel. error", "iter"
+    );
     let branch = continue_branch(&structure, &start, &settings, |p| {
         let exact = duffing_period(w0, alpha, duffing_amplitude(w0, alpha, p.energy));
         println!(

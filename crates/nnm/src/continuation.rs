@@ -370,7 +370,7 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
     settings: &Settings,
     mut observer: impl FnMut(&BranchPoint) -> ControlFlow<()>,
 ) -> Result<Branch, ContinuationError> {
-    validate(settings)?;
+    settings.validate()?;
     let shooting_settings = ShootingSettings {
         phase: settings.phase,
         jacobian: settings.jacobian,
@@ -479,6 +479,13 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
     })
 }
 
+impl Settings {
+    /// Checks every setting; `continue_branch` calls it, and front ends can call it early.
+    pub fn validate(&self) -> Result<(), ContinuationError> {
+        validate(self)
+    }
+}
+
 fn validate(settings: &Settings) -> Result<(), ContinuationError> {
     let positive = |name: &str, v: f64| {
         if v.is_finite() && v > 0.0 {
@@ -535,9 +542,7 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
     settings: &Settings,
 ) -> Result<BranchPoint, String> {
     let evaluation = &corrected.evaluation;
-    let monodromy = shooting
-        .monodromy(evaluation)
-        .map_err(|e| e.to_string())?;
+    let monodromy = shooting.monodromy(evaluation).map_err(|e| e.to_string())?;
     let floquet =
         floquet::analyse(&monodromy, settings.stability_tolerance).map_err(|e| e.to_string())?;
     Ok(BranchPoint {

@@ -118,7 +118,9 @@ pub fn find_mode<'a>(
     let wanted = pattern.unwrap_or(StandingWave::Cos);
     let label: String = selector.chars().filter(|c| !c.is_whitespace()).collect();
     modes.iter().enumerate().find(|(_, m)| {
-        m.label() == label && m.cyclic.is_some_and(|c| c.pattern.is_none_or(|p| p == wanted))
+        m.label() == label
+            && m.cyclic
+                .is_some_and(|c| c.pattern.is_none_or(|p| p == wanted))
     })
 }
 
@@ -207,7 +209,11 @@ fn standing_waves(
     let angle = 0.5 * (2.0 * g12).atan2(g11 - g22) + 0.5 * PI;
     let (alpha, beta) = (angle.cos(), angle.sin());
     let mut cos: Vec<f64> = u.iter().zip(w).map(|(a, b)| alpha * a + beta * b).collect();
-    let mut sin: Vec<f64> = u.iter().zip(w).map(|(a, b)| -beta * a + alpha * b).collect();
+    let mut sin: Vec<f64> = u
+        .iter()
+        .zip(w)
+        .map(|(a, b)| -beta * a + alpha * b)
+        .collect();
     // Orient: the cos wave's largest sector-0 dof positive, then the sin wave along sin θ·a.
     let r_max = (0..s)
         .max_by(|&a, &b| cos[a].abs().total_cmp(&cos[b].abs()))
@@ -253,12 +259,12 @@ mod tests {
     fn bladed_disk_reproduces_table_1() {
         const TABLE_1: [[f64; 16]; 2] = [
             [
-                0.000, 0.183, 0.363, 0.536, 0.700, 0.850, 0.985, 1.103, 1.202, 1.282, 1.346,
-                1.394, 1.428, 1.452, 1.465, 1.470,
+                0.000, 0.183, 0.363, 0.536, 0.700, 0.850, 0.985, 1.103, 1.202, 1.282, 1.346, 1.394,
+                1.428, 1.452, 1.465, 1.470,
             ],
             [
-                2.082, 2.084, 2.092, 2.104, 2.123, 2.147, 2.178, 2.215, 2.258, 2.304, 2.350,
-                2.394, 2.431, 2.460, 2.478, 2.485,
+                2.082, 2.084, 2.092, 2.104, 2.123, 2.147, 2.178, 2.215, 2.258, 2.304, 2.350, 2.394,
+                2.431, 2.460, 2.478, 2.485,
             ],
         ];
         let modes = linear_modes(&BladedDisk::default().build().unwrap()).unwrap();
@@ -327,7 +333,11 @@ mod tests {
         assert!((modes[1].frequency - 3f64.sqrt()).abs() < 1e-14);
         let s = &modes[0].shape;
         assert!((s[0].abs() - 0.5f64.sqrt()).abs() < 1e-14 && (s[0] - s[1]).abs() < 1e-14);
-        assert!(modes.iter().all(|m| m.cyclic.is_none() && m.label().is_empty()));
+        assert!(
+            modes
+                .iter()
+                .all(|m| m.cyclic.is_none() && m.label().is_empty())
+        );
     }
 
     #[test]

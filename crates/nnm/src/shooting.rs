@@ -216,7 +216,9 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         let scale = z0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         self.integrator.tolerances.absolute =
             self.integrator.tolerances.relative * scale.max(f64::MIN_POSITIVE);
-        let flow = self.integrator.flow(self.system, z0, period, directions, steps)?;
+        let flow = self
+            .integrator
+            .flow(self.system, z0, period, directions, steps)?;
         self.stats.integrations += 1;
         self.stats.integration += flow.stats;
         Ok(flow)
@@ -236,8 +238,12 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         };
         match self.jacobian_method {
             JacobianMethod::Sensitivity => {
-                let flow =
-                    self.integrate(z0, period, Some(Block::new(directions, n2, k, n2)), first_step)?;
+                let flow = self.integrate(
+                    z0,
+                    period,
+                    Some(Block::new(directions, n2, k, n2)),
+                    first_step,
+                )?;
                 self.first_step = flow.steps.first().copied();
                 let derivative = flow.sensitivity.clone();
                 Ok((flow, derivative))
@@ -253,7 +259,8 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
                     // round-off in the (smooth, same-steps) discrete flow map.
                     let delta = 1e-8 * z_scale / linalg::norm(d).max(f64::MIN_POSITIVE);
                     let zp: Vec<f64> = z0.iter().zip(d).map(|(z, d)| z + delta * d).collect();
-                    let perturbed = self.integrate(&zp, period, None, Steps::Replay(&flow.steps))?;
+                    let perturbed =
+                        self.integrate(&zp, period, None, Steps::Replay(&flow.steps))?;
                     for (i, out) in derivative[c * n2..(c + 1) * n2].iter_mut().enumerate() {
                         *out = (perturbed.z[i] - flow.z[i]) / delta;
                     }
@@ -352,8 +359,11 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
                     velocity_directions[c * n2 + n..(c + 1) * n2]
                         .copy_from_slice(&self.basis[c * n..(c + 1) * n]);
                 }
-                let (_, derivative) =
-                    self.flow_with_derivative(&evaluation.z0, evaluation.period, &velocity_directions)?;
+                let (_, derivative) = self.flow_with_derivative(
+                    &evaluation.z0,
+                    evaluation.period,
+                    &velocity_directions,
+                )?;
                 phi_e[n2 * r..].copy_from_slice(&derivative);
             }
         }

@@ -5,7 +5,9 @@ fn parse(text: &str) -> Result<Job, JobError> {
 }
 
 fn error(text: &str) -> String {
-    let e = parse(text).expect_err("the job must be rejected").to_string();
+    let e = parse(text)
+        .expect_err("the job must be rejected")
+        .to_string();
     assert!(!e.contains('\n'), "error must be one line: {e}");
     e
 }
@@ -63,7 +65,10 @@ fn settings_section_gives_defaults_that_branches_override() {
     assert_eq!(job.branches[0].settings.tolerance, 1e-10);
     assert_eq!(job.branches[0].settings.energy_max, 5.0);
     assert_eq!(job.branches[1].settings.energy_max, 7.0);
-    assert_eq!(job.branches[1].settings.phase, PhaseCondition::FlowOrthogonal);
+    assert_eq!(
+        job.branches[1].settings.phase,
+        PhaseCondition::FlowOrthogonal
+    );
 }
 
 #[test]
@@ -94,8 +99,14 @@ fn general_model_with_dense_rows_and_elements() {
 fn bad_jobs_get_one_line_errors() {
     let cases: &[(&str, &str)] = &[
         ("[model\nfamily = 1", "job.toml:1:"),
-        ("[model]\nfamily = \"bladed\"", "unknown model family `bladed`"),
-        ("[model]\nfamily = \"duffing\"\nsectors = 3", "`sectors` does not apply"),
+        (
+            "[model]\nfamily = \"bladed\"",
+            "unknown model family `bladed`",
+        ),
+        (
+            "[model]\nfamily = \"duffing\"\nsectors = 3",
+            "`sectors` does not apply",
+        ),
         ("[model]\nfamily = \"duffing\"\ncubc = 3.0", "cubc"),
         (
             "[model]\nmass = [[1.0, 0.0], [0.0]]\nstiffness = [[1.0, 0.0], [0.0, 1.0]]",
@@ -140,7 +151,10 @@ fn bad_jobs_get_one_line_errors() {
     ];
     for (text, expected) in cases {
         let e = error(text);
-        assert!(e.contains(expected), "for {text:?}: got `{e}`, expected `{expected}`");
+        assert!(
+            e.contains(expected),
+            "for {text:?}: got `{e}`, expected `{expected}`"
+        );
     }
 }
 

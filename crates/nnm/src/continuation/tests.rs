@@ -37,13 +37,20 @@ fn duffing_backbone_matches_exact_period() {
             let structure = duffing(w0, alpha).unwrap();
             let branch = backbone(&structure, 0, &settings);
             assert_eq!(branch.stop, StopReason::FrequencyShiftMax, "{phase:?}");
-            let shifts: Vec<f64> = branch.points.iter().map(|p| p.frequency / w0 - 1.0).collect();
+            let shifts: Vec<f64> = branch
+                .points
+                .iter()
+                .map(|p| p.frequency / w0 - 1.0)
+                .collect();
             // The branch passes the 1%, 10% and 50% marks with points on both sides.
             for mark in [0.01, 0.1, 0.5] {
                 assert!(shifts.iter().any(|&s| s < mark) && shifts.iter().any(|&s| s > mark));
             }
             let error = duffing_error(&branch, w0, alpha);
-            assert!(error < 1e-7, "w0={w0} a={alpha} {phase:?}: max relative error {error:.2e}");
+            assert!(
+                error < 1e-7,
+                "w0={w0} a={alpha} {phase:?}: max relative error {error:.2e}"
+            );
             // Single dof: the only multipliers are the trivial pair.
             assert!(branch.points.iter().all(|p| p.floquet.stable));
         }
@@ -62,6 +69,9 @@ fn accuracy_follows_requested_tolerance() {
         };
         let branch = backbone(&duffing(1.0, 1.0).unwrap(), 0, &settings);
         let error = duffing_error(&branch, 1.0, 1.0);
-        assert!(error < 10.0 * tolerance, "tolerance {tolerance}: error {error:.2e}");
+        assert!(
+            error < 10.0 * tolerance,
+            "tolerance {tolerance}: error {error:.2e}"
+        );
     }
 }

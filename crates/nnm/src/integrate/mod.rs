@@ -181,7 +181,9 @@ impl Integrator {
 
         let (mut h, replay) = match steps {
             Steps::Replay(list) => (list.first().copied().unwrap_or(duration), Some(list)),
-            Steps::Adaptive { first_step: Some(h) } if h > 0.0 => (h, None),
+            Steps::Adaptive {
+                first_step: Some(h),
+            } if h > 0.0 => (h, None),
             Steps::Adaptive { .. } => {
                 let h = self.initial_step(system, &z, duration, &mut stats);
                 (h, None)
@@ -264,9 +266,21 @@ impl Integrator {
                     continue;
                 }
                 // After a rejection, do not grow at once (Hairer's safeguard against ping-pong).
-                let next = if last_rejected { h * factor.min(1.0) } else { h * factor };
+                let next = if last_rejected {
+                    h * factor.min(1.0)
+                } else {
+                    h * factor
+                };
                 last_rejected = false;
-                self.finish_step(system, h, columns, n2, &mut phi, first_phi_ready, &mut stats);
+                self.finish_step(
+                    system,
+                    h,
+                    columns,
+                    n2,
+                    &mut phi,
+                    first_phi_ready,
+                    &mut stats,
+                );
                 t += h;
                 accepted.push(h);
                 h = next;
@@ -274,7 +288,15 @@ impl Integrator {
                 if !finite {
                     return Err(IntegrationError::NotFinite { t });
                 }
-                self.finish_step(system, h, columns, n2, &mut phi, first_phi_ready, &mut stats);
+                self.finish_step(
+                    system,
+                    h,
+                    columns,
+                    n2,
+                    &mut phi,
+                    first_phi_ready,
+                    &mut stats,
+                );
                 t += h;
                 accepted.push(h);
                 step_index += 1;
@@ -399,7 +421,11 @@ impl Integrator {
 }
 
 /// `g(z) = [v; a(x)]`, the state-form vector field of SPEC §1.
-pub(crate) fn evaluate_field<S: SecondOrderSystem + ?Sized>(system: &S, z: &[f64], out: &mut [f64]) {
+pub(crate) fn evaluate_field<S: SecondOrderSystem + ?Sized>(
+    system: &S,
+    z: &[f64],
+    out: &mut [f64],
+) {
     let n = z.len() / 2;
     let (dx, dv) = out.split_at_mut(n);
     dx.copy_from_slice(&z[n..]);

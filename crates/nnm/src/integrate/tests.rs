@@ -39,7 +39,11 @@ fn harmonic_oscillator_flow_and_sensitivity_are_exact() {
             assert!((flow.z[i] - exact[i]).abs() < 1e-10, "{}", tableau.name);
         }
         for k in 0..4 {
-            assert!((flow.sensitivity[k] - phi[k]).abs() < 1e-10, "{}", tableau.name);
+            assert!(
+                (flow.sensitivity[k] - phi[k]).abs() < 1e-10,
+                "{}",
+                tableau.name
+            );
         }
     }
 }
@@ -95,10 +99,19 @@ fn adaptive_accuracy_follows_tolerance() {
             },
         );
         let flow = integrator
-            .flow(&system, &[amp, 0.0], period, None, Steps::Adaptive { first_step: None })
+            .flow(
+                &system,
+                &[amp, 0.0],
+                period,
+                None,
+                Steps::Adaptive { first_step: None },
+            )
             .unwrap();
         let err = ((flow.z[0] - amp).powi(2) + flow.z[1].powi(2)).sqrt() / amp;
-        assert!(err < 100.0 * tol, "tol {tol}: relative return error {err:.2e}");
+        assert!(
+            err < 100.0 * tol,
+            "tol {tol}: relative return error {err:.2e}"
+        );
         assert!(flow.stats.steps > 5);
     }
 }

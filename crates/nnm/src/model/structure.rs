@@ -226,14 +226,7 @@ impl SecondOrderSystem for Structure {
             MassInverse::Dense(inv) => SCRATCH.with_borrow_mut(|f| {
                 f.resize(n, 0.0);
                 self.nonlinear_force(x, f);
-                linalg::gemm(
-                    a,
-                    n,
-                    false,
-                    inv.as_ref(),
-                    linalg::view(f, n, 1, n),
-                    -1.0,
-                );
+                linalg::gemm(a, n, false, inv.as_ref(), linalg::view(f, n, 1, n), -1.0);
             }),
         }
         self.mass_inverse_stiffness.apply_add(-1.0, x, n, 1, a, n);
@@ -382,7 +375,8 @@ mod tests {
             Structure::new(k.clone(), nan, vec![]),
             Err(ModelError::NotFinite { .. })
         ));
-        let far = vec![Box::new(PolynomialSpring::cubic(5, None, 1.0)) as Box<dyn NonlinearElement>];
+        let far =
+            vec![Box::new(PolynomialSpring::cubic(5, None, 1.0)) as Box<dyn NonlinearElement>];
         assert!(matches!(
             Structure::new(k.clone(), k, far),
             Err(ModelError::ElementDofOutOfRange { dof: 5, .. })

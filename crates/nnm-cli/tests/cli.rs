@@ -1,0 +1,176 @@
+//! The command-line contract of SPEC §5: outputs, and one-line errors with a non-zero exit for
+//! bad input (never a panic).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn nnm(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nnm"))
+        .args(args)
+        .output()
+        .expect("the nnm binary runs")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("nnm-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn write(dir: &Path, file: &str, text: &str) -> String {
+    let path = dir.join(file);
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// Runs `nnm run JOB` expecting failure; returns the single stderr line.
+fn expect_error(job_text: &str, expected: &str) {
+    let dir = scratch("bad");
+    let job = write(&dir, "job.toml", job_text);
+    let out = dir.join("out");
+    let output = nnm(&["run", &job, "--out", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success(), "must fail: {job_text}");
+    assert_eq!(output.status.code(), Some(1), "stderr: {stderr}");
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "one line expected, got: {stderr}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    assert!(lines[0].contains(expected), "`{stderr}` lacks `{expected}`");
+    assert!(!stderr.contains("panicked"));
+}
+
+const TWO_DOF: &str =
+    "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n";
+const BRANCH: &str = "[[branch]]\nname = \"b\"\nmode = 0\nenergy_max = 1.0\n";
+
+#[test]
+fn bad_input_gives_one_line_errors() {
+    expect_error("[model\nfamily = ", "job.toml:1:");
+    expect_error(
+        "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[2.0, -1.0, 0.0], [-1.0, 2.0, 0.0], [0.0, 0.0, 1.0]]\n",
+        "stiffness matrix is 3x3, expected 2x2",
+    );
+    expect_error(
+        "[model]\nmass = [[1.0, 2.0], [2.0, 1.0]]\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n",
+        "mass matrix is not positive definite",
+    );
+    expect_error(
+        "[model]\nfamily = \"bladed-disk\"\n[[branch]]\nname = \"x\"\nmode = \"2,5\"\nenergy_max = 1.0\n",
+        "unknown mode `2,5`",
+    );
+    expect_error(
+        "[model]\nfamily = \"bladed-disk\"\n[[branch]]\nname = \"x\"\nmode = \"0,0\"\nenergy_max = 1.0\n",
+        "rigid-body mode",
+    );
+    expect_error(
+        "[model]\nmass = { file = \"nowhere.mtx\" }\nstiffness = [[1.0]]\n",
+        "cannot read",
+    );
+    expect_error(
+        &format!(
+            "{TWO_DOF}[[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\ncoefficient = nan\n{BRANCH}"
+        ),
+        "coefficient must be finite",
+    );
+    expect_error(
+        &format!("{TWO_DOF}{BRANCH}tolerance = -1.0\n"),
+        "tolerance must be positive",
+    );
+    // A missing job file.
+    let output = nnm(&["run", "/nonexistent/job.toml", "--out", "/tmp/x"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1));
+    assert_eq!(stderr.lines().count(), 1);
+    assert!(
+        stderr.starts_with("error: cannot read /nonexistent/job.toml"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn help_on_every_subcommand() {
+    for args in [
+        vec!["--help"],
+        vec!["modes", "--help"],
+        vec!["run", "--help"],
+        vec!["example", "--help"],
+        vec!["example", "bladed-disk", "--help"],
+    ] {
+        let output = nnm(&args);
+        assert!(output.status.success(), "{args:?}");
+        assert!(String::from_utf8_lossy(&output.stdout).contains("Usage"));
+    }
+}
+
+#[test]
+fn modes_writes_the_contract_columns() {
+    let dir = scratch("modes");
+    let job = write(&dir, "model.toml", "[model]\nfamily = \"bladed-disk\"\n");
+    let output = nnm(&["modes", &job, "--out", dir.to_str().unwrap()]);
+    assert!(output.status.success());
+    let csv = std::fs::read_to_string(dir.join("modes.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert!(
+        lines
+            .next()
+            .unwrap()
+            .starts_with("index,frequency_rad_s,label")
+    );
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 60);
+    assert!(rows[0].starts_with("0,0,\"0,0\""), "{}", rows[0]);
+    // (1,15), the highest mode: 2.485 rad/s in Table 1.
+    let last: Vec<&str> = rows[59].split(',').collect();
+    assert!((last[1].parse::<f64>().unwrap() - 2.485).abs() < 5e-4);
+    assert_eq!(rows[59].split('"').nth(1), Some("1,15"));
+}
+
+#[test]
+fn run_writes_csv_and_json_per_branch() {
+    let dir = scratch("run");
+    let job = write(
+        &dir,
+        "job.toml",
+        &format!(
+            "{TWO_DOF}[[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\ncoefficient = 0.5\n{BRANCH}"
+        ),
+    );
+    let out = dir.join("out");
+    let output = nnm(&["run", &job, "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let csv = std::fs::read_to_string(out.join("b.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for column in [
+        "energy",
+        "frequency_rad_s",
+        "period_s",
+        "stable",
+        "max_floquet_modulus",
+    ] {
+        assert!(header.contains(&column), "missing column {column}");
+    }
+    let rows = csv.lines().count() - 1;
+    assert!(rows > 5);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("b.json")).unwrap()).unwrap();
+    assert_eq!(json["status"], "finished");
+    let points = json["points"].as_array().unwrap();
+    assert_eq!(points.len(), rows);
+    let last = &points[rows - 1];
+    assert_eq!(last["z0"].as_array().unwrap().len(), 4);
+    assert!(last["energy"].as_f64().unwrap() > 1.0);
+    // Period and frequency agree, and the low-energy limit is the linear mode (ω = 1).
+    let first = &points[0];
+    let (f, t) = (
+        first["frequency_rad_s"].as_f64().unwrap(),
+        first["period_s"].as_f64().unwrap(),
+    );
+    assert!((f * t - 2.0 * std::f64::consts::PI).abs() < 1e-12);
+    assert!((f - 1.0).abs() < 1e-3);
+    assert!(out.join("fep.png").exists() && out.join("fep.svg").exists());
+}
