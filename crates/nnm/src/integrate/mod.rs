@@ -10,6 +10,12 @@
 //!
 //! Step sizes are controlled on the motion only; the sensitivity pass runs after a step is
 //! accepted, so rejected steps cost no variational work.
+//!
+//! **Choice of scheme (measured).** On the Duffing backbone `x'' + x + x³ = 0` to +50%
+//! frequency (`nnm run` with `integrator = "dop853"` vs `"dopri5"`, same shooting tolerance),
+//! both reach the same accuracy against the exact period (7e-10 at tolerance 1e-8, 9e-12 at
+//! 1e-10), but DOPRI5 needs 3.8× (1e-8) to 5.7× (1e-10) more vector-field evaluations — and
+//! as many more variational evaluations, which dominate for many DOFs. DOP853 is the default.
 
 mod tableau;
 
