@@ -25,6 +25,7 @@ use crate::modes::LinearMode;
 use crate::shooting::{
     Evaluation, JacobianMethod, PhaseCondition, Shooting, ShootingSettings, ShootingStats,
 };
+use crate::symmetry::{Parity, invariant_class};
 
 /// Continuation settings. `Default` gives the values documented on each field.
 #[derive(Debug, Clone)]
@@ -85,10 +86,15 @@ impl Default for Settings {
 /// Where a branch starts: the space of allowed initial displacements and a first guess.
 #[derive(Debug, Clone)]
 pub struct Start {
-    /// Elastic basis `B` (`n × r`, column-major, mass-orthonormal).
+    /// Elastic basis `B` (`n × r`, column-major, mass-orthonormal): all elastic modes, the
+    /// first `unknown_columns` spanning the subspace the branch lives in.
     pub basis: Vec<f64>,
     /// `M B`.
     pub mass_basis: Vec<f64>,
+    /// How many leading columns of `basis` carry the shooting unknowns.
+    pub unknown_columns: usize,
+    /// The mirror-symmetry class the unknowns were restricted to, if any.
+    pub symmetry: Option<Parity>,
     /// Reference (linear) angular frequency of the branch.
     pub omega: f64,
     /// Initial guess of `z0` (length 2n).
@@ -113,7 +119,9 @@ pub enum ContinuationError {
 impl Start {
     /// Starts on linear mode `index` scaled to the linear energy `energy`; when `energy` is
     /// `None`, at the amplitude where the nonlinear forces are 1e-4 of the linear ones (so
-    /// the first point is nearly linear whatever the units of the model).
+    /// the first point is nearly linear whatever the units of the model). When the structure
+    /// has a verified mirror symmetry, the unknowns are restricted to the invariant class of
+    /// the starting mode ([`crate::symmetry`]); [`Start::unrestricted`] undoes that.
     pub fn from_linear_mode(
         structure: &Structure,
         modes: &[LinearMode],
@@ -128,8 +136,18 @@ impl Start {
             return Err(ContinuationError::RigidMode(index));
         }
         let n = structure.dofs();
-        let elastic: Vec<&LinearMode> = modes.iter().filter(|m| !m.rigid).collect();
-        let basis: Vec<f64> = elastic.iter().flat_map(|m| m.shape.clone()).collect();
+        // Elastic modes, those of the starting mode's invariant class first.
+        let class = invariant_class(structure, modes, index);
+        let mut order: Vec<usize> = match &class {
+            Some((_, members)) => members.clone(),
+            None => (0..modes.len()).filter(|&k| !modes[k].rigid).collect(),
+        };
+        let unknown_columns = order.len();
+        let rest: Vec<usize> = (0..modes.len())
+            .filter(|k| !modes[*k].rigid && !order.contains(k))
+            .collect();
+        order.extend(rest);
+        let basis: Vec<f64> = order.iter().flat_map(|&k| modes[k].shape.clone()).collect();
         let mass = structure.mass();
         let mut mass_basis = vec![0.0; basis.len()];
         for (c, col) in mass_basis.chunks_mut(n).enumerate() {
@@ -153,10 +171,21 @@ impl Start {
         Ok(Self {
             basis,
             mass_basis,
+            unknown_columns,
+            symmetry: class.map(|(parity, _)| parity),
             omega: mode.frequency,
             z0,
             period: 2.0 * std::f64::consts::PI / mode.frequency,
         })
+    }
+}
+
+impl Start {
+    /// The same start with the unknowns spanning every elastic mode (no symmetry restriction).
+    pub fn unrestricted(mut self) -> Self {
+        self.unknown_columns = self.basis.len() / (self.z0.len() / 2);
+        self.symmetry = None;
+        self
     }
 }
 
@@ -382,6 +411,7 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
         system,
         start.basis.clone(),
         start.mass_basis.clone(),
+        start.unknown_columns,
         start.omega,
         &shooting_settings,
     );

@@ -11,6 +11,7 @@
 //! - [`shooting`]: the periodicity problem `H(z0, T) = z(T; z0) - z0 = 0` and its Jacobian;
 //! - [`continuation`]: pseudo-arclength continuation of a branch;
 //! - [`floquet`]: multipliers and stability;
+//! - [`symmetry`]: mirror symmetry of cyclic structures and the invariant subspaces it gives;
 //! - [`reference`]: exact solutions used for validation.
 
 pub mod continuation;
@@ -21,3 +22,4 @@ pub mod model;
 pub mod modes;
 pub mod reference;
 pub mod shooting;
+pub mod symmetry;

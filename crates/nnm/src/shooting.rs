@@ -4,10 +4,12 @@
 //! `∂H/∂z0 = Φ(T) - I`, `∂H/∂T = g(z(T))` from the variational equations (or, as the paper's
 //! baseline, from finite differences).
 //!
-//! **Unknowns.** Initial states are restricted to an *elastic basis* `B` (`n × r`, mass-
-//! orthonormal linear modes without the rigid-body ones): `x0 = B a` and, for the general
-//! phase condition, `v0 = ω_ref B b`. This removes the rigid-body degeneracy exactly (a rigid
-//! shift is periodic for every `T`, a rigid velocity drifts; SPEC §7) and gives modal scaling.
+//! **Unknowns.** Initial states are restricted to the leading `r_u` columns `B_u` of an
+//! *elastic basis* `B` (`n × r`, mass-orthonormal linear modes without the rigid-body ones):
+//! `x0 = B_u a` and, for the general phase condition, `v0 = ω_ref B_u b`. This removes the
+//! rigid-body degeneracy exactly (a rigid shift is periodic for every `T`, a rigid velocity
+//! drifts; SPEC §7) and gives modal scaling; `B_u` may be a smaller invariant subspace (see
+//! [`crate::symmetry`]), while Floquet multipliers always use the whole of `B`.
 //! The period enters as `τ = T / T_ref`. The unknown vector is `u = (a[, b], τ)`.
 //!
 //! **Equations.** Residual rows are weighted `W = diag(I, I/ω_ref)` so that displacement and
@@ -77,11 +79,12 @@ pub struct ShootingStats {
 pub struct Shooting<'a, S: SecondOrderSystem + ?Sized> {
     system: &'a S,
     n: usize,
-    /// Elastic basis `B`, `n × r` column-major.
+    /// Elastic basis `B`, `n × r` column-major; its first `r_u` columns span the unknowns.
     basis: Vec<f64>,
     /// `M B`, for projections onto modal coordinates (`q = (MB)ᵀ x`).
     mass_basis: Vec<f64>,
     r: usize,
+    r_u: usize,
     phase: PhaseCondition,
     jacobian_method: JacobianMethod,
     omega_ref: f64,
@@ -108,26 +111,28 @@ pub struct ShootingSettings {
 }
 
 impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
-    /// `basis`: `n × r` column-major, mass-orthonormal; `mass_basis = M B`;
-    /// `omega_ref`, `period_ref`: scales of the branch (its linear mode).
+    /// `basis`: `n × r` column-major, mass-orthonormal, the first `unknown_columns` spanning
+    /// the unknowns; `mass_basis = M B`; `omega_ref`: frequency scale of the branch.
     pub fn new(
         system: &'a S,
         basis: Vec<f64>,
         mass_basis: Vec<f64>,
+        unknown_columns: usize,
         omega_ref: f64,
         settings: &ShootingSettings,
     ) -> Self {
         let n = system.dofs();
         let r = basis.len() / n;
+        let r_u = unknown_columns.min(r);
         let m = match settings.phase {
-            PhaseCondition::ZeroVelocity => r,
-            PhaseCondition::FlowOrthogonal => 2 * r,
+            PhaseCondition::ZeroVelocity => r_u,
+            PhaseCondition::FlowOrthogonal => 2 * r_u,
         };
         let mut state_basis = vec![0.0; 2 * n * m];
-        for c in 0..r {
+        for c in 0..r_u {
             state_basis[c * 2 * n..c * 2 * n + n].copy_from_slice(&basis[c * n..(c + 1) * n]);
             if settings.phase == PhaseCondition::FlowOrthogonal {
-                let col = &mut state_basis[(r + c) * 2 * n + n..(r + c + 1) * 2 * n];
+                let col = &mut state_basis[(r_u + c) * 2 * n + n..(r_u + c + 1) * 2 * n];
                 for (s, b) in col.iter_mut().zip(&basis[c * n..(c + 1) * n]) {
                     *s = omega_ref * b;
                 }
@@ -143,6 +148,7 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
             basis,
             mass_basis,
             r,
+            r_u,
             phase: settings.phase,
             jacobian_method: settings.jacobian,
             omega_ref,
@@ -187,9 +193,9 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
 
     /// Unknowns `u` whose state is the projection of `z0` on the unknown directions.
     pub fn unknowns_from_state(&self, z0: &[f64], period: f64) -> Vec<f64> {
-        let (n, r) = (self.n, self.r);
+        let (n, r_u) = (self.n, self.r_u);
         let project = |x: &[f64]| -> Vec<f64> {
-            (0..r)
+            (0..r_u)
                 .map(|c| linalg::dot(&self.mass_basis[c * n..(c + 1) * n], x))
                 .collect()
         };
@@ -336,44 +342,52 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
     /// The monodromy matrix restricted to the elastic state space, in modal coordinates
     /// (`2r × 2r`): `L Φ(T) E` with `E = diag(B, B)`, `L = diag((MB)ᵀ, (MB)ᵀ)`. Rigid-body
     /// motions decouple exactly (their block is `[[1, T], [0, 1]]`), so its eigenvalues are the
-    /// Floquet multipliers of the elastic motion. Reuses the flow derivative of `evaluation`
-    /// for the directions it already covers.
+    /// Floquet multipliers of the elastic motion. The columns of `Φ E` that the evaluation
+    /// already propagated (the unknown directions) are reused; the rest are integrated in one
+    /// pass on a fresh step sequence.
     pub fn monodromy(&mut self, evaluation: &Evaluation) -> Result<Mat<f64>, IntegrationError> {
-        let (n, n2, r) = (self.n, 2 * self.n, self.r);
-        // Columns of Φ E: displacement directions come from the evaluation; velocity
-        // directions too for the general phase (scaled by ω_ref there), else integrate them.
-        let mut phi_e = vec![0.0; n2 * 2 * r];
-        phi_e[..n2 * r].copy_from_slice(&evaluation.flow_derivative[..n2 * r]);
-        match self.phase {
-            PhaseCondition::FlowOrthogonal => {
-                for (out, d) in phi_e[n2 * r..]
-                    .iter_mut()
-                    .zip(&evaluation.flow_derivative[n2 * r..])
-                {
-                    *out = d / self.omega_ref;
+        let (n, n2, r, r_u) = (self.n, 2 * self.n, self.r, self.r_u);
+        let (phase, omega_ref) = (self.phase, self.omega_ref);
+        // Column c of E: displacement mode c (c < r) or velocity mode c - r.
+        let known = move |c: usize| -> Option<(usize, f64)> {
+            match phase {
+                _ if c < r_u => Some((c, 1.0)),
+                PhaseCondition::FlowOrthogonal if c >= r && c < r + r_u => {
+                    Some((r_u + c - r, 1.0 / omega_ref))
                 }
+                _ => None,
             }
-            PhaseCondition::ZeroVelocity => {
-                let mut velocity_directions = vec![0.0; n2 * r];
-                for c in 0..r {
-                    velocity_directions[c * n2 + n..(c + 1) * n2]
-                        .copy_from_slice(&self.basis[c * n..(c + 1) * n]);
-                }
-                let (_, derivative) = self.flow_with_derivative(
-                    &evaluation.z0,
-                    evaluation.period,
-                    &velocity_directions,
-                )?;
-                phi_e[n2 * r..].copy_from_slice(&derivative);
-            }
+        };
+        let missing: Vec<usize> = (0..2 * r).filter(|&c| known(c).is_none()).collect();
+        let mut directions = vec![0.0; n2 * missing.len()];
+        for (k, &c) in missing.iter().enumerate() {
+            let (mode, offset) = if c < r { (c, 0) } else { (c - r, n) };
+            directions[k * n2 + offset..k * n2 + offset + n]
+                .copy_from_slice(&self.basis[mode * n..(mode + 1) * n]);
         }
+        let integrated = if missing.is_empty() {
+            Vec::new()
+        } else {
+            self.flow_with_derivative(&evaluation.z0, evaluation.period, &directions)?
+                .1
+        };
         let mut reduced = Mat::<f64>::zeros(2 * r, 2 * r);
+        let mut next_missing = 0;
         for c in 0..2 * r {
-            let col = &phi_e[c * n2..(c + 1) * n2];
+            let column: Vec<f64> = match known(c) {
+                Some((k, scale)) => evaluation.flow_derivative[k * n2..(k + 1) * n2]
+                    .iter()
+                    .map(|v| v * scale)
+                    .collect(),
+                None => {
+                    next_missing += 1;
+                    integrated[(next_missing - 1) * n2..next_missing * n2].to_vec()
+                }
+            };
             for k in 0..r {
                 let mb = &self.mass_basis[k * n..(k + 1) * n];
-                reduced[(k, c)] = linalg::dot(mb, &col[..n]);
-                reduced[(r + k, c)] = linalg::dot(mb, &col[n..]);
+                reduced[(k, c)] = linalg::dot(mb, &column[..n]);
+                reduced[(r + k, c)] = linalg::dot(mb, &column[n..]);
             }
         }
         Ok(reduced)

@@ -120,6 +120,7 @@ fn shooting<'a>(
         structure,
         start.basis.clone(),
         start.mass_basis.clone(),
+        start.unknown_columns,
         start.omega,
         &ShootingSettings {
             phase: settings.phase,
@@ -705,9 +706,8 @@ fn backbone_0_14() -> &'static BladedBranch {
 ///   shape; 1e-3 relative, since the first point differs from the linear shape by O(1e-4));
 ///   at the end of the branch it is more than twice that. The per-sector energies are checked
 ///   to add up to the point's total energy (1e-10 relative: a sum of the same terms);
-/// - (a) for (1,5) only: x0 has no content on the sin-partner modes (< 1e-6 of ‖x0‖_M). The
-///   same check on (1,14) and (0,6) fails today — see the ignored
-///   `bladed_disk_backbones_stay_on_their_family`.
+/// - (a) x0 has no content on the sin-partner modes (< 1e-6 of ‖x0‖_M); the full check on
+///   five branches is `bladed_disk_backbones_stay_on_their_family`.
 #[test]
 fn bladed_disk_backbones_reach_targets_and_localize() {
     let p = BladedDisk::default();
@@ -793,16 +793,11 @@ fn bladed_disk_backbones_reach_targets_and_localize() {
 /// and a branch started in it has no odd content in exact arithmetic. 1e-6 is 100× the
 /// convergence tolerance; an O(1) content means the branch has left its family.
 ///
-/// IGNORED because it fails (library defect, reported): only (1,5) passes (max 2e-9). At low
-/// energy the partner direction is nearly singular (its multipliers sit at +1), the QR least-
-/// squares solves of the tangent and corrector (which assume full column rank) pick up an
-/// uncontrolled component along it, and nothing removes it while it barely changes the
-/// residual: (1,14) reaches ~4e-5, (0,6) ~1e-3, (0,14) ~6e-3 and (0,2) ~1e-2 by E = 1000
-/// (and past E ≈ 1.5e3 the (0,2) branch rotates into its partner, content 0.74, and stalls).
-/// The content vanishes again (~1e-14) once the partner multipliers leave +1 at higher energy.
-/// Run with `--ignored` to see the figures.
+/// This failed before the shooting unknowns were restricted to the mirror-even class
+/// (`nnm::symmetry`): with all 59 elastic modes as unknowns, the nearly singular partner
+/// direction let the least-squares corrector drift, up to 1e-2 on (0,2) by E = 1000. It now
+/// holds to round-off (~1e-16).
 #[test]
-#[ignore = "fails: branches drift onto the sin partner at low energy (library defect, see doc)"]
 fn bladed_disk_backbones_stay_on_their_family() {
     let mut failures = Vec::new();
     for (label, b) in [
@@ -834,16 +829,14 @@ fn bladed_disk_backbones_stay_on_their_family() {
 ///
 /// Measure: the mass-metric angle between x0 and the linear mode shape (the low-energy limit
 /// of the branch). Asserted at a common energy, the first point with E ≥ 100 on each branch:
-/// angle(0,14) > 3 angle(0,2) (observed: ~40×, even with the (0,2) branch's spurious partner
-/// content, ~1e-2, counted in its angle).
+/// angle(0,14) > 3 angle(0,2).
 ///
 /// Also printed, NOT asserted: the angles at a common frequency shift (the largest reached by
 /// (0,2) below E = 1000, ~0.03%, (0,14) interpolated to it), raw and with the sin-partner
-/// content removed. There the ratio is only ~2.4 in the cos family (both angles grow about
-/// linearly with the shift), and the raw (0,2) angle is dominated by the partner drift; so
-/// the "comparable frequency shift" version of the ordering is not supported by the numbers.
-/// (0,2) cannot be taken to +2%: its frequency rises ~0.03% by E = 1000, and the branch
-/// leaves its family beyond E ≈ 1.5e3 (see `bladed_disk_backbones_stay_on_their_family`).
+/// content removed (identical now that branches stay in the cos family). There the ratio is
+/// only ~2.6 (both angles grow about linearly with the shift), so the "comparable frequency
+/// shift" version of the ordering is not supported by the numbers. (0,2) is not taken to +2%:
+/// its frequency rises only ~0.03% by E = 1000.
 #[test]
 fn nonsimilar_modes_change_shape() {
     let b02 = backbone_0_2();

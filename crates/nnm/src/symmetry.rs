@@ -1,0 +1,195 @@
+//! Mirror symmetry of cyclic structures, and the invariant subspaces it gives.
+//!
+//! The reflection `R`: sector `i ↦ sector (N − i) mod N` (dofs within a sector kept) maps a
+//! cos standing wave `cos(2π d i/N)` to itself and a sin wave to minus itself. When `R` is a
+//! symmetry of the system (`R M Rᵀ = M`, `R K Rᵀ = K`, `f_nl(R x) = R f_nl(x)`), the
+//! subspace of mirror-even states (`R x = x`, `R v = v`) is invariant under the motion; the
+//! mirror-odd subspace is too when `f_nl` is odd. A branch started on a cos wave therefore
+//! lives in the even subspace, and restricting the shooting unknowns to it removes the
+//! degenerate partner (the sin wave, whose Floquet multipliers sit at +1 at low energy and
+//! make the Jacobian nearly singular in a second direction, SPEC §7) from the problem exactly:
+//! without it the least-squares corrector lets the branch drift onto the partner.
+//!
+//! Every property is *checked* numerically on the model (matrices entrywise, forces at sample
+//! states), so a cyclic model whose sectors are not themselves mirror-symmetric is simply not
+//! restricted.
+
+use crate::model::{SecondOrderSystem, Structure};
+use crate::modes::LinearMode;
+
+/// Whether a mode is even or odd under the mirror reflection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Parity {
+    Even,
+    Odd,
+}
+
+/// Relative tolerance of the symmetry checks.
+const TOLERANCE: f64 = 1e-10;
+
+/// The dof permutation of the mirror reflection (`None` for non-cyclic structures).
+fn mirror_permutation(structure: &Structure) -> Option<Vec<usize>> {
+    let cyclic = structure.cyclic_symmetry()?;
+    let (n_s, s) = (cyclic.sectors, cyclic.dofs_per_sector);
+    Some(
+        (0..n_s * s)
+            .map(|dof| ((n_s - dof / s) % n_s) * s + dof % s)
+            .collect(),
+    )
+}
+
+/// `R x` for the permutation `p`.
+fn reflect(p: &[usize], x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; x.len()];
+    for (i, &j) in p.iter().enumerate() {
+        y[j] = x[i];
+    }
+    y
+}
+
+fn close(a: &[f64], b: &[f64], scale: f64) -> bool {
+    a.iter()
+        .zip(b)
+        .all(|(x, y)| (x - y).abs() <= TOLERANCE * scale.max(f64::MIN_POSITIVE))
+}
+
+/// Deterministic sample states for the force checks (no random-number dependency needed).
+fn sample_states(n: usize) -> Vec<Vec<f64>> {
+    (1..=3)
+        .map(|k| {
+            (0..n)
+                .map(|i| ((i * 7 + k * 13) as f64 * 0.618_033_988_75).sin() * k as f64)
+                .collect()
+        })
+        .collect()
+}
+
+/// Checks that the mirror reflection is a symmetry of the whole system; returns it.
+fn verified_mirror(structure: &Structure) -> Option<Vec<usize>> {
+    let p = mirror_permutation(structure)?;
+    let n = p.len();
+    for m in [structure.mass(), structure.stiffness()] {
+        let scale = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .fold(0.0f64, |s, (i, j)| s.max(m[(i, j)].abs()));
+        for i in 0..n {
+            for j in 0..n {
+                if (m[(p[i], p[j])] - m[(i, j)]).abs() > TOLERANCE * scale {
+                    return None;
+                }
+            }
+        }
+    }
+    for x in sample_states(n) {
+        let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+        structure.acceleration(&reflect(&p, &x), &mut a);
+        structure.acceleration(&x, &mut b);
+        let scale = b.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        if !close(&a, &reflect(&p, &b), scale) {
+            return None;
+        }
+    }
+    Some(p)
+}
+
+fn nonlinearity_is_odd(structure: &Structure) -> bool {
+    let n = structure.dofs();
+    sample_states(n).into_iter().all(|x| {
+        let minus: Vec<f64> = x.iter().map(|v| -v).collect();
+        let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+        structure.nonlinear_force(&minus, &mut a);
+        structure.nonlinear_force(&x, &mut b);
+        let neg: Vec<f64> = b.iter().map(|v| -v).collect();
+        let scale = b.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        close(&a, &neg, scale)
+    })
+}
+
+/// Parity of a shape under `R`: `Some(Even)` if `R φ = φ`, `Some(Odd)` if `R φ = -φ`.
+fn parity(p: &[usize], shape: &[f64]) -> Option<Parity> {
+    let r = reflect(p, shape);
+    let scale = shape.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+    let tol = 1e-8 * scale;
+    if r.iter().zip(shape).all(|(a, b)| (a - b).abs() <= tol) {
+        Some(Parity::Even)
+    } else if r.iter().zip(shape).all(|(a, b)| (a + b).abs() <= tol) {
+        Some(Parity::Odd)
+    } else {
+        None
+    }
+}
+
+/// The invariant subspace a branch from `modes[start]` lives in: its parity and the indices of
+/// the elastic modes of that parity. `None` when the structure has no verified mirror
+/// symmetry, when a mode is not of pure parity, or for an odd start with a nonlinearity that
+/// is not odd.
+pub fn invariant_class(
+    structure: &Structure,
+    modes: &[LinearMode],
+    start: usize,
+) -> Option<(Parity, Vec<usize>)> {
+    let p = verified_mirror(structure)?;
+    let parities: Vec<Option<Parity>> = modes.iter().map(|m| parity(&p, &m.shape)).collect();
+    let wanted = parities.get(start).copied().flatten()?;
+    if parities
+        .iter()
+        .zip(modes)
+        .any(|(q, m)| q.is_none() && !m.rigid)
+    {
+        return None;
+    }
+    if wanted == Parity::Odd && !nonlinearity_is_odd(structure) {
+        return None;
+    }
+    let members = (0..modes.len())
+        .filter(|&k| !modes[k].rigid && parities[k] == Some(wanted))
+        .collect();
+    Some((wanted, members))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{BladedDisk, PolynomialSpring, two_dof};
+    use crate::modes::{StandingWave, find_mode, linear_modes};
+
+    #[test]
+    fn bladed_disk_cos_and_sin_waves_have_opposite_parity() {
+        let s = BladedDisk::default().build().unwrap();
+        let modes = linear_modes(&s).unwrap();
+        let (cos, _) = find_mode(&modes, "1,5", Some(StandingWave::Cos)).unwrap();
+        let (sin, _) = find_mode(&modes, "1,5", Some(StandingWave::Sin)).unwrap();
+        let (pc, even) = invariant_class(&s, &modes, cos).unwrap();
+        let (ps, odd) = invariant_class(&s, &modes, sin).unwrap();
+        assert_eq!((pc, ps), (Parity::Even, Parity::Odd));
+        // 16 cos-type shapes per sector dof minus the rigid mode; 14 sin-type per sector dof.
+        assert_eq!((even.len(), odd.len()), (31, 28));
+        assert!(even.contains(&cos) && !even.contains(&sin) && odd.contains(&sin));
+    }
+
+    #[test]
+    fn no_class_without_cyclic_symmetry_or_with_even_power_for_odd_start() {
+        let s = two_dof(0.5).unwrap();
+        let modes = linear_modes(&s).unwrap();
+        assert!(invariant_class(&s, &modes, 0).is_none());
+        // A bladed disk with a quadratic blade spring: the even class stays invariant, the
+        // odd one does not.
+        let base = BladedDisk::default().build().unwrap();
+        let elements: Vec<Box<dyn crate::model::NonlinearElement>> = (0..30)
+            .map(|i| {
+                Box::new(PolynomialSpring::new(2 * i + 1, Some(2 * i), 0.1, 2))
+                    as Box<dyn crate::model::NonlinearElement>
+            })
+            .collect();
+        let quadratic = Structure::new(base.mass().clone(), base.stiffness().clone(), elements)
+            .unwrap()
+            .with_cyclic_symmetry(base.cyclic_symmetry().unwrap())
+            .unwrap();
+        let modes = linear_modes(&quadratic).unwrap();
+        let (cos, _) = find_mode(&modes, "1,5", Some(StandingWave::Cos)).unwrap();
+        let (sin, _) = find_mode(&modes, "1,5", Some(StandingWave::Sin)).unwrap();
+        assert!(invariant_class(&quadratic, &modes, cos).is_some());
+        assert!(invariant_class(&quadratic, &modes, sin).is_none());
+    }
+}
