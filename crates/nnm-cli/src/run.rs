@@ -83,6 +83,7 @@ fn resolve(job: &Job, modes: &[LinearMode]) -> Result<Vec<(usize, BranchInfo)>> 
                     mode_label: mode.label(),
                     pattern: mode.cyclic.and_then(|c| c.pattern),
                     linear_frequency_rad_s: mode.frequency,
+                    symmetry: None,
                 },
             ))
         })
@@ -208,9 +209,16 @@ fn compute_branch(
     quiet: bool,
     log: &Mutex<()>,
 ) -> Result<Branch> {
-    let mut writer = BranchWriter::create(out, info.clone())?;
     let started = Instant::now();
-    let start = Start::from_linear_mode(&job.structure, modes, index, branch.energy_start)?;
+    let mut start = Start::from_linear_mode(&job.structure, modes, index, branch.energy_start)?;
+    if !branch.symmetry {
+        start = start.unrestricted();
+    }
+    let info = &BranchInfo {
+        symmetry: start.symmetry,
+        ..info.clone()
+    };
+    let mut writer = BranchWriter::create(out, info.clone())?;
     let mut write_error = None;
     let result = continue_branch(&job.structure, &start, &branch.settings, |p| {
         if let Err(e) = writer.write_point(p) {

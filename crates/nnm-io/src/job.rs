@@ -74,6 +74,9 @@ pub struct BranchJob {
     pub pattern: Option<StandingWave>,
     /// Linear energy of the starting guess (`None`: chosen from the nonlinearity's size).
     pub energy_start: Option<f64>,
+    /// Restrict the unknowns to the starting mode's mirror-symmetry class when the model has
+    /// one (default `true`).
+    pub symmetry: bool,
     pub settings: Settings,
 }
 
@@ -148,6 +151,7 @@ struct Options {
     jacobian: Option<JacobianMethod>,
     phase: Option<PhaseCondition>,
     integrator: Option<String>,
+    symmetry: Option<bool>,
 }
 
 impl Options {
@@ -169,6 +173,7 @@ impl Options {
             jacobian: self.jacobian.or(defaults.jacobian),
             phase: self.phase.or(defaults.phase),
             integrator: self.integrator.clone().or(defaults.integrator.clone()),
+            symmetry: self.symmetry.or(defaults.symmetry),
         }
     }
 
@@ -286,6 +291,7 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
             mode,
             pattern,
             energy_start: options.energy_start,
+            symmetry: options.symmetry.unwrap_or(true),
             settings,
         });
     }

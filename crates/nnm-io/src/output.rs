@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use nnm::continuation::{Branch, BranchPoint, BranchStats};
 use nnm::modes::{LinearMode, StandingWave};
+use nnm::symmetry::Parity;
 use serde::Serialize;
 
 use crate::job::io_reason;
@@ -71,6 +72,8 @@ pub struct BranchInfo {
     pub mode_label: String,
     pub pattern: Option<StandingWave>,
     pub linear_frequency_rad_s: f64,
+    /// Mirror-symmetry class the shooting unknowns were restricted to (`even`/`odd`), if any.
+    pub symmetry: Option<Parity>,
 }
 
 /// One point as stored in `<name>.json`.
