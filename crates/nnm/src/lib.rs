@@ -12,8 +12,10 @@
 //! - [`continuation`]: pseudo-arclength continuation of a branch;
 //! - [`floquet`]: multipliers and stability;
 //! - [`symmetry`]: mirror symmetry of cyclic structures and the invariant subspaces it gives;
+//! - [`analysis`]: harmonics, shape change and energy localization of computed NNMs;
 //! - [`reference`]: exact solutions used for validation.
 
+pub mod analysis;
 pub mod continuation;
 pub mod floquet;
 pub mod integrate;
