@@ -1,6 +1,7 @@
 //! `nnm`: nonlinear normal modes from the command line (SPEC §5).
 
 mod run;
+mod study;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -44,6 +45,22 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// The bladed-disk study of the paper on a job's model: every backbone, similar vs
+    /// nonsimilar modes, localization, the 3:1 tongue, the sensitivity/finite-difference cost
+    /// comparison; figures and DIR/report.md.
+    Study {
+        /// Job file whose [model] is a cyclic bladed disk ([settings] gives the backbone limits).
+        job: PathBuf,
+        /// Output folder (created if missing).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// A subset of backbones and no finite-difference comparison, for a first look.
+        #[arg(long)]
+        quick: bool,
+        /// Branches computed at once (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
     /// Run a built-in study end to end; its job file is written into DIR to edit and rerun.
     Example {
         #[command(subcommand)]
@@ -53,7 +70,7 @@ enum Command {
 
 #[derive(Subcommand, Clone)]
 enum Example {
-    /// The paper's 30-sector nonlinear bladed disk (SPEC §3).
+    /// The paper's 30-sector nonlinear bladed disk: the whole study of SPEC §3 (`nnm study`).
     BladedDisk(ExampleArgs),
     /// Duffing oscillator against its exact period.
     Duffing(ExampleArgs),
@@ -69,6 +86,9 @@ struct ExampleArgs {
     /// Only print the summary, not every point.
     #[arg(long, short)]
     quiet: bool,
+    /// Bladed disk only: a subset of backbones and no finite-difference comparison.
+    #[arg(long)]
+    quick: bool,
 }
 
 fn main() -> ExitCode {
@@ -106,7 +126,14 @@ fn execute(cli: Cli) -> Result<()> {
             threads,
             quiet,
         } => run::run_job(&job, &out, threads, quiet),
+        Command::Study {
+            job,
+            out,
+            quick,
+            threads,
+        } => study::bladed_disk_study(&job, &out, &study::StudyOptions { quick, threads }),
         Command::Example { which } => {
+            let bladed_disk = matches!(which, Example::BladedDisk(_));
             let (name, text, args) = match which {
                 Example::BladedDisk(a) => (
                     "bladed-disk",
@@ -126,7 +153,15 @@ fn execute(cli: Cli) -> Result<()> {
             std::fs::write(&job, text)
                 .with_context(|| format!("cannot write {}", job.display()))?;
             eprintln!("example {name}: job file written to {}", job.display());
-            run::run_job(&job, &args.out, None, args.quiet)
+            if bladed_disk {
+                let options = study::StudyOptions {
+                    quick: args.quick,
+                    threads: None,
+                };
+                study::bladed_disk_study(&job, &args.out, &options)
+            } else {
+                run::run_job(&job, &args.out, None, args.quiet)
+            }
         }
     }
 }

@@ -6,9 +6,10 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
-use nnm::continuation::{Branch, Start, continue_branch};
+use nnm::continuation::{Branch, BranchPoint, Start, continue_branch};
+use nnm::model::Structure;
 use nnm::modes::{LinearMode, find_mode, linear_modes};
-use nnm_io::job::{BranchJob, Job, load_job};
+use nnm_io::job::{BranchJob, load_job};
 use nnm_io::output::{BranchInfo, BranchWriter, write_modes_csv};
 use nnm_plot::{FrequencyEnergyPlot, Series, SeriesPoint};
 use rayon::prelude::*;
@@ -42,14 +43,22 @@ pub fn modes(file: &Path, out: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
-fn create_dir(dir: &Path) -> Result<()> {
+pub fn create_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
+}
+
+/// A branch ready to compute: what the job asked, and the mode it starts from.
+#[derive(Clone)]
+pub struct BranchRequest {
+    pub job: BranchJob,
+    pub index: usize,
+    pub info: BranchInfo,
 }
 
 /// The starting mode of each branch, resolved before any computation so that a wrong label
 /// fails at once.
-fn resolve(job: &Job, modes: &[LinearMode]) -> Result<Vec<(usize, BranchInfo)>> {
-    job.branches
+pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<BranchRequest>> {
+    branches
         .iter()
         .map(|b| {
             let (index, mode) = find_mode(modes, &b.mode, b.pattern).ok_or_else(|| {
@@ -75,9 +84,10 @@ fn resolve(job: &Job, modes: &[LinearMode]) -> Result<Vec<(usize, BranchInfo)>> 
                     b.mode
                 );
             }
-            Ok((
+            Ok(BranchRequest {
+                job: b.clone(),
                 index,
-                BranchInfo {
+                info: BranchInfo {
                     name: b.name.clone(),
                     mode_index: index,
                     mode_label: mode.label(),
@@ -85,15 +95,15 @@ fn resolve(job: &Job, modes: &[LinearMode]) -> Result<Vec<(usize, BranchInfo)>> 
                     linear_frequency_rad_s: mode.frequency,
                     symmetry: None,
                 },
-            ))
+            })
         })
         .collect()
 }
 
-struct Outcome {
-    info: BranchInfo,
-    result: Result<Branch>,
-    seconds: f64,
+pub struct Outcome {
+    pub info: BranchInfo,
+    pub result: Result<Branch>,
+    pub seconds: f64,
 }
 
 pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool) -> Result<()> {
@@ -105,42 +115,80 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
         );
     }
     let modes = linear_modes(&job.structure).context("modal analysis failed")?;
-    let resolved = resolve(&job, &modes)?;
+    let requests = resolve(&job.branches, &modes)?;
     create_dir(out)?;
     write_modes_csv(&out.join("modes.csv"), &modes)?;
-
     let clock = Instant::now();
+    let outcomes = compute_all(&job.structure, &modes, requests, out, threads, quiet)?;
+    plot(&outcomes, &out.join("fep"), "Frequency-energy plot")?;
+    if !quiet {
+        eprintln!();
+    }
+    print_summary(&outcomes);
+    println!(
+        "wall time {:.2} s; results in {}",
+        clock.elapsed().as_secs_f64(),
+        out.display()
+    );
+    let failures: Vec<String> = outcomes
+        .iter()
+        .filter_map(|o| {
+            o.result
+                .as_ref()
+                .err()
+                .map(|e| format!("{}: {e:#}", o.info.name))
+        })
+        .collect();
+    if !failures.is_empty() {
+        bail!(
+            "{} of {} branches failed ({})",
+            failures.len(),
+            outcomes.len(),
+            failures.join("; ")
+        );
+    }
+    Ok(())
+}
+
+/// Computes branches in parallel (one per worker thread), each written to `out` as it goes.
+pub fn compute_all(
+    structure: &Structure,
+    modes: &[LinearMode],
+    requests: Vec<BranchRequest>,
+    out: &Path,
+    threads: Option<usize>,
+    quiet: bool,
+) -> Result<Vec<Outcome>> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))
         .build()
         .context("cannot start worker threads")?;
     let log = Mutex::new(());
-    let outcomes: Vec<Outcome> = pool.install(|| {
-        job.branches
-            .par_iter()
-            .zip(resolved.into_par_iter())
-            .map(|(branch, (index, info))| {
+    Ok(pool.install(|| {
+        requests
+            .into_par_iter()
+            .map(|request| {
                 let started = Instant::now();
-                let result = compute_branch(&job, &modes, branch, index, &info, out, quiet, &log);
+                let result = compute_branch(structure, modes, &request, out, quiet, &log, |_| {
+                    ControlFlow::Continue(())
+                });
                 Outcome {
-                    info,
+                    info: request.info,
                     result,
                     seconds: started.elapsed().as_secs_f64(),
                 }
             })
             .collect()
-    });
+    }))
+}
 
-    plot(&outcomes, out)?;
-    if !quiet {
-        eprintln!();
-    }
+/// One line per branch: points, energy and frequency reached, time, why it stopped.
+pub fn print_summary(outcomes: &[Outcome]) {
     println!(
         "{:<16} {:>6} {:>7} {:>11} {:>11} {:>10} {:>8}  stop",
         "branch", "mode", "points", "E_max", "f_max", "shift", "time_s"
     );
-    let mut failures = Vec::new();
-    for o in &outcomes {
+    for o in outcomes {
         match &o.result {
             Ok(branch) => {
                 let last = branch.points.last();
@@ -162,26 +210,9 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
                     branch.stop
                 );
             }
-            Err(e) => {
-                println!("{:<16} failed: {e:#}", o.info.name);
-                failures.push(format!("{}: {e:#}", o.info.name));
-            }
+            Err(e) => println!("{:<16} failed: {e:#}", o.info.name),
         }
     }
-    println!(
-        "wall time {:.2} s; results in {}",
-        clock.elapsed().as_secs_f64(),
-        out.display()
-    );
-    if !failures.is_empty() {
-        bail!(
-            "{} of {} branches failed ({})",
-            failures.len(),
-            outcomes.len(),
-            failures.join("; ")
-        );
-    }
-    Ok(())
 }
 
 trait Label {
@@ -198,19 +229,20 @@ impl Label for BranchInfo {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn compute_branch(
-    job: &Job,
+/// Computes one branch, writing every point as it converges; `extra` sees each point after it
+/// is written and may stop the branch.
+pub fn compute_branch(
+    structure: &Structure,
     modes: &[LinearMode],
-    branch: &BranchJob,
-    index: usize,
-    info: &BranchInfo,
+    request: &BranchRequest,
     out: &Path,
     quiet: bool,
     log: &Mutex<()>,
+    mut extra: impl FnMut(&BranchPoint) -> ControlFlow<()>,
 ) -> Result<Branch> {
+    let (branch, index, info) = (&request.job, request.index, &request.info);
     let started = Instant::now();
-    let mut start = Start::from_linear_mode(&job.structure, modes, index, branch.energy_start)?;
+    let mut start = Start::from_linear_mode(structure, modes, index, branch.energy_start)?;
     if !branch.symmetry {
         start = start.unrestricted();
     }
@@ -220,7 +252,7 @@ fn compute_branch(
     };
     let mut writer = BranchWriter::create(out, info.clone())?;
     let mut write_error = None;
-    let result = continue_branch(&job.structure, &start, &branch.settings, |p| {
+    let result = continue_branch(structure, &start, &branch.settings, |p| {
         if let Err(e) = writer.write_point(p) {
             write_error = Some(e);
             return ControlFlow::Break(());
@@ -242,7 +274,7 @@ fn compute_branch(
                 p.floquet.max_modulus
             );
         }
-        ControlFlow::Continue(())
+        extra(p)
     });
     if let Some(e) = write_error {
         return Err(e.into());
@@ -266,8 +298,8 @@ fn compute_branch(
     }
 }
 
-/// One frequency–energy plot of every branch that has points: DIR/fep.png and DIR/fep.svg.
-fn plot(outcomes: &[Outcome], out: &Path) -> Result<()> {
+/// One frequency–energy plot of every branch that has points: `<stem>.png` and `<stem>.svg`.
+pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
     let series: Vec<Series> = outcomes
         .iter()
         .filter_map(|o| {
@@ -283,6 +315,7 @@ fn plot(outcomes: &[Outcome], out: &Path) -> Result<()> {
                         stable: p.floquet.stable,
                     })
                     .collect(),
+                ..Default::default()
             })
         })
         .filter(|s| !s.points.is_empty())
@@ -291,10 +324,11 @@ fn plot(outcomes: &[Outcome], out: &Path) -> Result<()> {
         return Ok(());
     }
     FrequencyEnergyPlot {
-        title: "Frequency-energy plot".into(),
+        title: title.into(),
         series,
         frequency_label: "frequency (rad/s)".into(),
+        ..Default::default()
     }
-    .write(&out.join("fep"))?;
+    .write(stem)?;
     Ok(())
 }

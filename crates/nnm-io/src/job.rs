@@ -63,6 +63,8 @@ pub struct Job {
     /// The model family (`"bladed-disk"`, `"duffing"`, `"two-dof"`, or `"general"`).
     pub family: String,
     pub branches: Vec<BranchJob>,
+    /// The `[settings]` section alone (what a branch gets when it sets nothing itself).
+    pub default_settings: Settings,
 }
 
 /// One branch to compute.
@@ -233,6 +235,12 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
             .map_err(|e: toml::de::Error| invalid(format!("[settings]: {}", e.message())))?,
         None => Options::default(),
     };
+    let default_settings = defaults
+        .settings()
+        .map_err(|m| invalid(format!("[settings]: {m}")))?;
+    default_settings
+        .validate()
+        .map_err(|e| invalid(format!("[settings]: {e}")))?;
     let mut branches = Vec::new();
     for (k, mut table) in file.branch.into_iter().enumerate() {
         let context = |what: &str| format!("branch {}: {what}", k + 1);
@@ -299,6 +307,7 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
         structure,
         family,
         branches,
+        default_settings,
     })
 }
 
