@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow, bail};
 use nnm::continuation::{Branch, BranchPoint, Start, continue_branch};
 use nnm::model::Structure;
-use nnm::modes::{LinearMode, find_mode, linear_modes};
+use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
 use nnm_io::job::{BranchJob, load_job};
 use nnm_io::output::{BranchInfo, BranchWriter, write_modes_csv};
 use nnm_plot::{FrequencyEnergyPlot, Series, SeriesPoint};
@@ -75,6 +75,15 @@ pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<Branc
                     "branch `{}`: mode `{}` is a rigid-body mode and has no nonlinear normal mode",
                     b.name,
                     b.mode
+                );
+            }
+            let found = mode.cyclic.and_then(|c| c.pattern);
+            if b.pattern.is_some() && found.is_some() && b.pattern != found {
+                bail!(
+                    "branch `{}`: mode {} is the {} wave of its pair, but `pattern` asks for the other",
+                    b.name,
+                    b.mode,
+                    if found == Some(StandingWave::Cos) { "cos" } else { "sin" }
                 );
             }
             if b.pattern.is_some() && mode.cyclic.is_none_or(|c| c.pattern.is_none()) {

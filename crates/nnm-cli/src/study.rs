@@ -1008,7 +1008,17 @@ fn cost_comparison(sensitivity: &Tongue, fd: &Tongue, report: &mut Report) {
          | Jacobian | points | Newton iterations | integrations | wall time (s) |\n|---|---|---|---|---|\n\
          | sensitivity | {} | {} | {} | {:.1} |\n| finite differences | {} | {} | {} | {:.1} |\n\n\
          Ratio of wall times: **{:.1}×** (the paper: 15 min vs 1 min in MATLAB). The junction \
-         energies of the two runs agree to {junction_difference} (relative).",
+         energies of the two runs agree to {junction_difference} (relative).\n\n\
+         Why the gap is smaller than the paper's: our finite differences are done as well as \
+         they can be — each perturbed motion replays the base run's steps, so it needs no error \
+         control, never rejects a step, and is exactly as smooth as the base map. One such \
+         column then costs about as much arithmetic as one column of the variational \
+         equations (a right-hand-side evaluation vs a tangent-times-vector product per stage), \
+         and the difference left is the per-integration overhead and the sensitivity run's \
+         reuse of the motion's stages. The paper's finite differences re-integrated every \
+         perturbed motion with its own adaptive steps in MATLAB, which is what made them 15× \
+         slower. The sensitivity Jacobian remains the accurate one (no increment to choose; \
+         monodromy entries agree with differences to ~1e-7, the differences' own accuracy).",
         sensitivity.points.len(),
         sensitivity.stats.newton_iterations,
         sensitivity.stats.shooting.integrations,

@@ -77,6 +77,51 @@ fn bad_input_gives_one_line_errors() {
         &format!("{TWO_DOF}{BRANCH}tolerance = -1.0\n"),
         "tolerance must be positive",
     );
+    expect_error(
+        "[model]\nfamily = \"bladed-disk\"\nsectors = 100000000\n",
+        "sectors must be between 1 and",
+    );
+    expect_error(
+        &format!(
+            "{TWO_DOF}[[model.nonlinear]]\ntype = \"polynomial\"\ndofs = [0]\ncoefficient = 1.0\nexponent = 4294967295\n{BRANCH}"
+        ),
+        "exponent must be 2 to 31",
+    );
+    expect_error(
+        &format!("{TWO_DOF}{BRANCH}energy_start = -1.0\n"),
+        "energy_start must be positive",
+    );
+    expect_error(
+        &format!("{TWO_DOF}{BRANCH}stability_tolerance = nan\n"),
+        "stability_tolerance",
+    );
+    expect_error(
+        &format!("{TWO_DOF}[[branch]]\nname = \"modes\"\nmode = 0\nenergy_max = 1.0\n"),
+        "not `modes`",
+    );
+    expect_error(
+        "[model]\nfamily = \"bladed-disk\"\n[[branch]]\nname = \"x\"\nmode = 2\npattern = \"cos\"\nenergy_max = 1.0\n",
+        "asks for the other",
+    );
+    {
+        // A Matrix Market header announcing a matrix too large to store densely.
+        let dir = scratch("big");
+        write(
+            &dir,
+            "big.mtx",
+            "%%MatrixMarket matrix coordinate real symmetric\n300000 300000 1\n1 1 1.0\n",
+        );
+        let job = write(
+            &dir,
+            "job.toml",
+            "[model]\nmass = { file = \"big.mtx\" }\nstiffness = { file = \"big.mtx\" }\n",
+        );
+        let output = nnm(&["modes", &job]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(stderr.contains("too large for dense storage"), "{stderr}");
+    }
     // A missing job file.
     let output = nnm(&["run", "/nonexistent/job.toml", "--out", "/tmp/x"]);
     let stderr = String::from_utf8_lossy(&output.stderr);

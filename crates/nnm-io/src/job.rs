@@ -46,12 +46,8 @@ pub enum JobError {
     },
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
-    #[error("{path}: invalid model: {source}")]
-    Model {
-        path: PathBuf,
-        #[source]
-        source: ModelError,
-    },
+    #[error("{path}: invalid model: {error}")]
+    Model { path: PathBuf, error: ModelError },
     #[error("{0}")]
     Matrix(#[from] MatrixMarketError),
 }
@@ -249,14 +245,15 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
             Some(_) => return Err(invalid(context("`name` must be a string"))),
             None => return Err(invalid(context("missing `name`"))),
         };
-        let valid_name = !name.is_empty()
+        let valid_name = name != "modes"
+            && !name.is_empty()
             && name
                 .chars()
                 .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
             && !name.starts_with('.');
         if !valid_name {
             return Err(invalid(context(&format!(
-                "name `{name}` must be non-empty and use only letters, digits, '-', '_', '.'"
+                "name `{name}` must be non-empty, not `modes`, and use only letters, digits, '-', '_', '.'"
             ))));
         }
         if branches.iter().any(|b: &BranchJob| b.name == name) {
@@ -294,6 +291,13 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
                 "give a stop limit: `energy_max`, `frequency_shift_max` or `max_points`",
             )));
         }
+        if let Some(e) = options.energy_start
+            && !(e.is_finite() && e > 0.0)
+        {
+            return Err(invalid(context(&format!(
+                "energy_start must be positive and finite, got {e}"
+            ))));
+        }
         branches.push(BranchJob {
             name,
             mode,
@@ -320,9 +324,9 @@ fn build_model(
         path: path.to_owned(),
         message,
     };
-    let model_error = |source: ModelError| JobError::Model {
+    let model_error = |error: ModelError| JobError::Model {
         path: path.to_owned(),
-        source,
+        error,
     };
     let family = spec.family.clone().unwrap_or_else(|| "general".into());
     // Keys that only make sense for some families must not be silently ignored.
@@ -421,8 +425,8 @@ fn build_element(spec: &ElementSpec) -> Result<Box<dyn NonlinearElement>, String
     let exponent = match (spec.kind.as_str(), spec.exponent) {
         ("cubic", None | Some(3)) => 3,
         ("cubic", Some(p)) => return Err(format!("a cubic element has exponent 3, not {p}")),
-        ("polynomial", Some(p)) if p >= 2 => p,
-        ("polynomial", Some(p)) => return Err(format!("exponent must be at least 2, got {p}")),
+        ("polynomial", Some(p)) if (2..=31).contains(&p) => p,
+        ("polynomial", Some(p)) => return Err(format!("exponent must be 2 to 31, got {p}")),
         ("polynomial", None) => return Err("a polynomial element needs `exponent`".into()),
         (other, _) => {
             return Err(format!(

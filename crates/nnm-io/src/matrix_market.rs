@@ -29,6 +29,9 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+/// Largest dense matrix the reader accepts (10⁴ × 10⁴ doubles = 800 MB).
+pub const MAX_DENSE_DOFS: usize = 10_000;
+
 /// A dense real matrix stored row-major: entry `(i, j)` is `data[i * cols + j]`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DenseMatrix {
@@ -105,7 +108,9 @@ pub enum MatrixMarketError {
         rows: usize,
         cols: usize,
     },
-    #[error("line {line}: matrix size {rows}x{cols} is too large")]
+    #[error(
+        "line {line}: matrix size {rows}x{cols} is too large for dense storage (at most {MAX_DENSE_DOFS} rows and columns)"
+    )]
     TooLarge {
         line: usize,
         rows: usize,
@@ -231,10 +236,9 @@ pub fn parse_matrix_market(text: &str) -> Result<DenseMatrix, MatrixMarketError>
             cols,
         });
     }
-    let fits = rows
-        .checked_mul(cols)
-        .and_then(|n| n.checked_mul(size_of::<f64>()));
-    if fits.is_none_or(|bytes| bytes > isize::MAX as usize) {
+    // Models are stored densely: cap the size before allocating rather than abort on an
+    // allocation failure.
+    if rows > MAX_DENSE_DOFS || cols > MAX_DENSE_DOFS {
         return Err(E::TooLarge { line, rows, cols });
     }
     let mut m = DenseMatrix::zeros(rows, cols);

@@ -488,9 +488,14 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
             settings,
         ) {
             Ok(p) => p,
-            Err(e) => {
-                stop = Some(StopReason::StepTooSmall(e.to_string()));
+            Err(why) if at_min_step => {
+                stop = Some(StopReason::StepTooSmall(why));
                 break;
+            }
+            Err(_) => {
+                stats.rejected_steps += 1;
+                step *= 0.5;
+                continue;
             }
         };
         step *= step_factor(corrected.iterations, settings.target_iterations);
@@ -532,6 +537,24 @@ fn validate(settings: &Settings) -> Result<(), ContinuationError> {
     positive("max_step", settings.max_step)?;
     positive("max_turn_angle", settings.max_turn_angle)?;
     positive("integration_factor", settings.integration_factor)?;
+    if settings.integration_factor > 1.0 {
+        return Err(ContinuationError::InvalidSetting(format!(
+            "integration_factor {} must not exceed 1 (the integrator must be at least as accurate as the shooting tolerance)",
+            settings.integration_factor
+        )));
+    }
+    if settings.max_turn_angle > std::f64::consts::PI {
+        return Err(ContinuationError::InvalidSetting(format!(
+            "max_turn_angle {} exceeds π",
+            settings.max_turn_angle
+        )));
+    }
+    if !(settings.stability_tolerance.is_finite() && settings.stability_tolerance >= 0.0) {
+        return Err(ContinuationError::InvalidSetting(format!(
+            "stability_tolerance must be finite and non-negative, got {}",
+            settings.stability_tolerance
+        )));
+    }
     if settings.tolerance >= 1e-2 {
         return Err(ContinuationError::InvalidSetting(format!(
             "tolerance {} is too loose (use < 1e-2)",
@@ -575,9 +598,13 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
     let monodromy = shooting.monodromy(evaluation).map_err(|e| e.to_string())?;
     let floquet =
         floquet::analyse(&monodromy, settings.stability_tolerance).map_err(|e| e.to_string())?;
+    let energy = shooting.energy(&evaluation.z0);
+    if !energy.is_finite() {
+        return Err(format!("non-finite energy {energy}"));
+    }
     Ok(BranchPoint {
         index,
-        energy: shooting.energy(&evaluation.z0),
+        energy,
         period: evaluation.period,
         frequency: 2.0 * std::f64::consts::PI / evaluation.period,
         z0: evaluation.z0.clone(),

@@ -62,8 +62,10 @@ pub enum ModesError {
     Eigen(#[from] LinalgError),
 }
 
-/// Relative threshold below which `ω²` counts as zero (rigid-body mode).
-pub const RIGID_TOLERANCE: f64 = 1e-9;
+/// Relative threshold below which `ω²` counts as zero (rigid-body mode): a few hundred times
+/// the round-off of the eigensolver (`~n ε λ_max`), so that slow elastic modes of stiff models
+/// (ω/ω_max down to ~1e-6) are not mistaken for rigid ones.
+pub const RIGID_TOLERANCE: f64 = 1e-12;
 
 /// All linear modes of `structure`, in ascending frequency.
 ///
@@ -147,11 +149,11 @@ fn label_cyclic(modes: &mut [LinearMode], cyclic: CyclicSymmetry, mass: &Mat<f64
     let diameters: Vec<usize> = modes
         .iter()
         .map(|m| {
-            (0..=n_s / 2)
-                .max_by(|&a, &b| {
-                    harmonic_content(&m.shape, cyclic, a)
-                        .total_cmp(&harmonic_content(&m.shape, cyclic, b))
-                })
+            let content: Vec<f64> = (0..=n_s / 2)
+                .map(|d| harmonic_content(&m.shape, cyclic, d))
+                .collect();
+            (0..content.len())
+                .max_by(|&a, &b| content[a].total_cmp(&content[b]))
                 .unwrap_or(0)
         })
         .collect();

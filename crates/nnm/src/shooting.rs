@@ -236,22 +236,26 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         z0: &[f64],
         period: f64,
         directions: &[f64],
+        replay: Option<&[f64]>,
     ) -> Result<(Flow, Vec<f64>), IntegrationError> {
         let n2 = 2 * self.n;
         let k = directions.len() / n2;
-        let first_step = Steps::Adaptive {
-            first_step: self.first_step,
+        let first_step = match replay {
+            Some(steps) => Steps::Replay(steps),
+            None => Steps::Adaptive {
+                first_step: self.first_step,
+            },
         };
         match self.jacobian_method {
             JacobianMethod::Sensitivity => {
-                let flow = self.integrate(
+                let mut flow = self.integrate(
                     z0,
                     period,
                     Some(Block::new(directions, n2, k, n2)),
                     first_step,
                 )?;
                 self.first_step = flow.steps.first().copied();
-                let derivative = flow.sensitivity.clone();
+                let derivative = std::mem::take(&mut flow.sensitivity);
                 Ok((flow, derivative))
             }
             JacobianMethod::FiniteDifference => {
@@ -293,7 +297,7 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         }
         let z0 = self.initial_state(u);
         let directions = std::mem::take(&mut self.state_basis);
-        let result = self.flow_with_derivative(&z0, period, &directions);
+        let result = self.flow_with_derivative(&z0, period, &directions, None);
         self.state_basis = directions;
         let (flow, derivative) = result?;
 
@@ -365,11 +369,17 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
             directions[k * n2 + offset..k * n2 + offset + n]
                 .copy_from_slice(&self.basis[mode * n..(mode + 1) * n]);
         }
+        // Same steps as the evaluation: every column then differentiates one discrete map.
         let integrated = if missing.is_empty() {
             Vec::new()
         } else {
-            self.flow_with_derivative(&evaluation.z0, evaluation.period, &directions)?
-                .1
+            self.flow_with_derivative(
+                &evaluation.z0,
+                evaluation.period,
+                &directions,
+                Some(&evaluation.steps),
+            )?
+            .1
         };
         let mut reduced = Mat::<f64>::zeros(2 * r, 2 * r);
         let mut next_missing = 0;

@@ -46,6 +46,9 @@ pub fn two_dof(cubic: f64) -> Result<Structure, ModelError> {
     )
 }
 
+/// Largest number of sectors of a [`BladedDisk`] (its matrices are stored densely).
+pub const MAX_SECTORS: usize = 5_000;
+
 /// The nonlinear bladed disk of SPEC §3: `sectors` sectors, each a disk mass `X_i` coupled to
 /// its neighbours (cyclically) and a blade mass `x_i` attached by a linear spring plus a cubic
 /// one. Dof `2i` is the disk of sector `i`, dof `2i+1` its blade.
@@ -81,10 +84,10 @@ impl Default for BladedDisk {
 impl BladedDisk {
     pub fn build(&self) -> Result<Structure, ModelError> {
         let n_s = self.sectors;
-        if n_s < 1 {
-            return Err(ModelError::InvalidParameter(
-                "sectors must be at least 1".into(),
-            ));
+        if !(1..=MAX_SECTORS).contains(&n_s) {
+            return Err(ModelError::InvalidParameter(format!(
+                "sectors must be between 1 and {MAX_SECTORS}, got {n_s}"
+            )));
         }
         positive("disk_mass", self.disk_mass)?;
         positive("blade_mass", self.blade_mass)?;

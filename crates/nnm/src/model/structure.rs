@@ -29,13 +29,13 @@ pub enum ModelError {
     },
     #[error("mass matrix is not positive definite")]
     MassNotPositiveDefinite,
-    #[error("nonlinear element {index} uses dof {dof}, but the model has {dofs} dofs")]
+    #[error("nonlinear element {} uses dof {dof}, but the model has {dofs} dofs", index + 1)]
     ElementDofOutOfRange {
         index: usize,
         dof: usize,
         dofs: usize,
     },
-    #[error("nonlinear element {index} is invalid: {reason}")]
+    #[error("nonlinear element {} is invalid: {reason}", index + 1)]
     InvalidElement { index: usize, reason: String },
     #[error("model has no degrees of freedom")]
     Empty,
