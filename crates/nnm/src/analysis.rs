@@ -23,6 +23,7 @@ pub fn sample_motion<S: SecondOrderSystem + ?Sized>(
         Tolerances {
             relative: tolerance,
             absolute: tolerance * scale.max(f64::MIN_POSITIVE),
+            velocity_scale: 1.0,
         },
     );
     let dt = period / samples.max(1) as f64;

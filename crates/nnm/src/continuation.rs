@@ -95,6 +95,9 @@ pub struct Start {
     pub unknown_columns: usize,
     /// The mirror-symmetry class the unknowns were restricted to, if any.
     pub symmetry: Option<Parity>,
+    /// Modal amplitude at which the nonlinear forces equal the linear ones along the starting
+    /// mode: the amplitude unit of the continuation (see `ShootingSettings::amplitude_scale`).
+    pub amplitude_scale: f64,
     /// Reference (linear) angular frequency of the branch.
     pub omega: f64,
     /// Initial guess of `z0` (length 2n).
@@ -173,6 +176,7 @@ impl Start {
             mass_basis,
             unknown_columns,
             symmetry: class.map(|(parity, _)| parity),
+            amplitude_scale: weakly_nonlinear_amplitude(structure, &mode.shape, 1.0),
             omega: mode.frequency,
             z0,
             period: 2.0 * std::f64::consts::PI / mode.frequency,
@@ -406,6 +410,7 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
         tableau: settings.tableau,
         tolerance: settings.tolerance,
         integration_factor: settings.integration_factor,
+        amplitude_scale: start.amplitude_scale,
     };
     let mut shooting = Shooting::new(
         system,

@@ -13,8 +13,10 @@
 //! The period enters as `τ = T / T_ref`. The unknown vector is `u = (a[, b], τ)`.
 //!
 //! **Equations.** Residual rows are weighted `W = diag(I, I/ω_ref)` so that displacement and
-//! velocity mismatches weigh alike in the least-squares corrector; the convergence test uses
-//! the unweighted `‖H‖ / ‖z0‖` of SPEC §2.
+//! velocity mismatches weigh alike, and the convergence test of SPEC §2 is applied in the same
+//! metric: `‖W H‖ / ‖W z0‖ < eps`. With `ω_ref = 1` this is exactly `‖H‖ / ‖z0‖`; in general
+//! it makes the test independent of the time unit (the unweighted one effectively ignores
+//! velocity mismatches when `ω ≪ 1` and over-weights them when `ω ≫ 1`).
 
 use crate::integrate::{
     Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tableau, evaluate_field as field,
@@ -54,7 +56,7 @@ pub struct Evaluation {
     pub z_end: Vec<f64>,
     /// `T`.
     pub period: f64,
-    /// `‖H‖ / ‖z0‖`, the convergence measure of SPEC §2.
+    /// `‖W H‖ / ‖W z0‖`, the convergence measure of SPEC §2 in the weighted metric.
     pub relative_residual: f64,
     /// Weighted residual rows `[W H; h]`.
     pub rows: Vec<f64>,
@@ -88,6 +90,7 @@ pub struct Shooting<'a, S: SecondOrderSystem + ?Sized> {
     phase: PhaseCondition,
     jacobian_method: JacobianMethod,
     omega_ref: f64,
+    amplitude_scale: f64,
     period_ref: f64,
     /// State directions of the unknowns, `2n × m`.
     state_basis: Vec<f64>,
@@ -108,6 +111,10 @@ pub struct ShootingSettings {
     pub tolerance: f64,
     /// Integrator relative tolerance = `integration_factor × tolerance`.
     pub integration_factor: f64,
+    /// Amplitude unit of the unknowns: `x0 = B_u (amplitude_scale · a)`. Chosen where the
+    /// nonlinearity becomes strong, it makes `a` and `τ` both O(1) in the nonlinear regime,
+    /// so the arclength does not depend on the model's length unit.
+    pub amplitude_scale: f64,
 }
 
 impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
@@ -128,19 +135,24 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
             PhaseCondition::ZeroVelocity => r_u,
             PhaseCondition::FlowOrthogonal => 2 * r_u,
         };
+        let a = settings.amplitude_scale;
         let mut state_basis = vec![0.0; 2 * n * m];
         for c in 0..r_u {
-            state_basis[c * 2 * n..c * 2 * n + n].copy_from_slice(&basis[c * n..(c + 1) * n]);
+            let b = &basis[c * n..(c + 1) * n];
+            for (s, b) in state_basis[c * 2 * n..c * 2 * n + n].iter_mut().zip(b) {
+                *s = a * b;
+            }
             if settings.phase == PhaseCondition::FlowOrthogonal {
                 let col = &mut state_basis[(r_u + c) * 2 * n + n..(r_u + c + 1) * 2 * n];
-                for (s, b) in col.iter_mut().zip(&basis[c * n..(c + 1) * n]) {
-                    *s = omega_ref * b;
+                for (s, b) in col.iter_mut().zip(b) {
+                    *s = a * omega_ref * b;
                 }
             }
         }
         let tolerances = crate::integrate::Tolerances {
             relative: settings.integration_factor * settings.tolerance,
             absolute: settings.integration_factor * settings.tolerance,
+            velocity_scale: omega_ref,
         };
         Self {
             system,
@@ -152,6 +164,7 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
             phase: settings.phase,
             jacobian_method: settings.jacobian,
             omega_ref,
+            amplitude_scale: a,
             period_ref: 2.0 * std::f64::consts::PI / omega_ref,
             state_basis,
             integrator: Integrator::new(settings.tableau, tolerances),
@@ -199,9 +212,10 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
                 .map(|c| linalg::dot(&self.mass_basis[c * n..(c + 1) * n], x))
                 .collect()
         };
-        let mut u = project(&z0[..n]);
+        let a = self.amplitude_scale;
+        let mut u: Vec<f64> = project(&z0[..n]).iter().map(|x| x / a).collect();
         if self.phase == PhaseCondition::FlowOrthogonal {
-            u.extend(project(&z0[n..]).iter().map(|v| v / self.omega_ref));
+            u.extend(project(&z0[n..]).iter().map(|v| v / (a * self.omega_ref)));
         }
         u.push(period / self.period_ref);
         u
@@ -219,7 +233,16 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         directions: Option<Block<'_>>,
         steps: Steps<'_>,
     ) -> Result<Flow, IntegrationError> {
-        let scale = z0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        // Absolute tolerance from the motion's displacement scale (velocities weighted by
+        // 1/ω_ref, see `Tolerances`).
+        let n = self.n;
+        let scale = z0.iter().enumerate().fold(0.0f64, |m, (i, v)| {
+            m.max(if i < n {
+                v.abs()
+            } else {
+                v.abs() / self.omega_ref
+            })
+        });
         self.integrator.tolerances.absolute =
             self.integrator.tolerances.relative * scale.max(f64::MIN_POSITIVE);
         let flow = self
@@ -302,10 +325,11 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         let (flow, derivative) = result?;
 
         let weight = |i: usize| if i < n { 1.0 } else { 1.0 / self.omega_ref };
-        let h: Vec<f64> = (0..n2).map(|i| flow.z[i] - z0[i]).collect();
-        let relative_residual = linalg::norm(&h) / linalg::norm(&z0).max(f64::MIN_POSITIVE);
+        let mut rows: Vec<f64> = (0..n2).map(|i| weight(i) * (flow.z[i] - z0[i])).collect();
+        let weighted_z0: Vec<f64> = (0..n2).map(|i| weight(i) * z0[i]).collect();
+        let relative_residual =
+            linalg::norm(&rows) / linalg::norm(&weighted_z0).max(f64::MIN_POSITIVE);
         let phase_rows = usize::from(self.phase == PhaseCondition::FlowOrthogonal);
-        let mut rows: Vec<f64> = (0..n2).map(|i| weight(i) * h[i]).collect();
         let mut jacobian = Mat::<f64>::zeros(n2 + phase_rows, m + 1);
         for c in 0..m {
             let s = &self.state_basis[c * n2..(c + 1) * n2];
@@ -351,13 +375,14 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
     /// pass on a fresh step sequence.
     pub fn monodromy(&mut self, evaluation: &Evaluation) -> Result<Mat<f64>, IntegrationError> {
         let (n, n2, r, r_u) = (self.n, 2 * self.n, self.r, self.r_u);
-        let (phase, omega_ref) = (self.phase, self.omega_ref);
-        // Column c of E: displacement mode c (c < r) or velocity mode c - r.
+        let (phase, omega_ref, a) = (self.phase, self.omega_ref, self.amplitude_scale);
+        // Column c of E: displacement mode c (c < r) or velocity mode c - r; the evaluation
+        // propagated them scaled by `a` (and `ω_ref` for velocities).
         let known = move |c: usize| -> Option<(usize, f64)> {
             match phase {
-                _ if c < r_u => Some((c, 1.0)),
+                _ if c < r_u => Some((c, 1.0 / a)),
                 PhaseCondition::FlowOrthogonal if c >= r && c < r + r_u => {
-                    Some((r_u + c - r, 1.0 / omega_ref))
+                    Some((r_u + c - r, 1.0 / (a * omega_ref)))
                 }
                 _ => None,
             }

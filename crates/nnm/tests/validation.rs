@@ -128,6 +128,7 @@ fn shooting<'a>(
             tableau: &DOP853,
             tolerance: settings.tolerance,
             integration_factor: settings.integration_factor,
+            amplitude_scale: start.amplitude_scale,
         },
     )
 }

@@ -24,11 +24,25 @@ pub use tableau::{DOP853, DOPRI5, ErrorEstimate, Tableau};
 use crate::model::{Block, BlockMut, SecondOrderSystem};
 
 /// Local error tolerances: a step is accepted when the scaled error norm
-/// `‖err_i / (absolute + relative·max(|z_i|, |z_new,i|))‖_rms ≤ 1`.
+/// `‖err_i / (atol_i + relative·max(|z_i|, |z_new,i|))‖_rms ≤ 1`, with `atol_i = absolute`
+/// for displacements and `absolute · velocity_scale` for velocities (velocities are a
+/// frequency times displacements: the scale keeps the test independent of the time unit).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tolerances {
     pub relative: f64,
     pub absolute: f64,
+    pub velocity_scale: f64,
+}
+
+impl Tolerances {
+    /// Absolute tolerance of state component `i` of `n2`.
+    fn absolute_at(&self, i: usize, n2: usize) -> f64 {
+        if 2 * i < n2 {
+            self.absolute
+        } else {
+            self.absolute * self.velocity_scale
+        }
+    }
 }
 
 /// How steps are chosen.
@@ -398,7 +412,8 @@ impl Integrator {
         let tol = &self.tolerances;
         let sk: Vec<f64> = z
             .iter()
-            .map(|v| tol.absolute + tol.relative * v.abs())
+            .enumerate()
+            .map(|(i, v)| tol.absolute_at(i, n2) + tol.relative * v.abs())
             .collect();
         let rms = |w: &dyn Fn(usize) -> f64| -> f64 {
             ((0..n2).map(|i| (w(i) / sk[i]).powi(2)).sum::<f64>() / n2 as f64).sqrt()
@@ -474,7 +489,7 @@ fn error_norm(
     k: &[f64],
     n2: usize,
 ) -> f64 {
-    let scale = |i: usize| tol.absolute + tol.relative * z[i].abs().max(z_new[i].abs());
+    let scale = |i: usize| tol.absolute_at(i, n2) + tol.relative * z[i].abs().max(z_new[i].abs());
     match &tab.error {
         ErrorEstimate::Embedded(e) => {
             let mut sum = 0.0;

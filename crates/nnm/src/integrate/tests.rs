@@ -20,6 +20,7 @@ fn harmonic_oscillator_flow_and_sensitivity_are_exact() {
             Tolerances {
                 relative: 1e-12,
                 absolute: 1e-12,
+                velocity_scale: 1.0,
             },
         );
         let eye = identity(2);
@@ -62,6 +63,7 @@ fn observed_order_matches_tableau_order() {
             Tolerances {
                 relative: 1e-10,
                 absolute: 1e-10,
+                velocity_scale: 1.0,
             },
         );
         let mut errors = vec![];
@@ -96,6 +98,7 @@ fn adaptive_accuracy_follows_tolerance() {
             Tolerances {
                 relative: tol,
                 absolute: tol * amp,
+                velocity_scale: 1.0,
             },
         );
         let flow = integrator
@@ -127,6 +130,7 @@ fn sensitivity_matches_finite_differences_of_the_same_discrete_map() {
         Tolerances {
             relative: 1e-9,
             absolute: 1e-9,
+            velocity_scale: 1.0,
         },
     );
     let eye = identity(4);
@@ -169,6 +173,7 @@ fn rejects_bad_requests() {
         Tolerances {
             relative: 1e-8,
             absolute: 1e-8,
+            velocity_scale: 1.0,
         },
     );
     let adaptive = Steps::Adaptive { first_step: None };
