@@ -139,15 +139,23 @@ impl Start {
             return Err(ContinuationError::RigidMode(index));
         }
         let n = structure.dofs();
-        // Elastic modes, those of the starting mode's invariant class first.
-        let class = invariant_class(structure, modes, index);
+        // Rigid-body modes are left out of the unknowns only when the nonlinear forces leave
+        // them alone; otherwise they are kept like any other mode.
+        let decoupled = rigid_modes_decouple(structure, modes);
+        let kept = |k: usize| !modes[k].rigid || !decoupled;
+        // Kept modes, those of the starting mode's invariant class first.
+        let class = if decoupled {
+            invariant_class(structure, modes, index)
+        } else {
+            None
+        };
         let mut order: Vec<usize> = match &class {
             Some((_, members)) => members.clone(),
-            None => (0..modes.len()).filter(|&k| !modes[k].rigid).collect(),
+            None => (0..modes.len()).filter(|&k| kept(k)).collect(),
         };
         let unknown_columns = order.len();
         let rest: Vec<usize> = (0..modes.len())
-            .filter(|k| !modes[*k].rigid && !order.contains(k))
+            .filter(|k| kept(*k) && !order.contains(k))
             .collect();
         order.extend(rest);
         let basis: Vec<f64> = order.iter().flat_map(|&k| modes[k].shape.clone()).collect();
@@ -191,6 +199,38 @@ impl Start {
         self.symmetry = None;
         self
     }
+}
+
+/// Whether every rigid-body mode `u` decouples from the nonlinear forces:
+/// `f_nl(x + c u) = f_nl(x)` and `uᵀ f_nl(x) = 0` at sample states (true of forces that depend
+/// on differences of displacements, as in a free-floating structure). Only then is a rigid
+/// shift periodic for every period and a rigid velocity a pure drift, so that the rigid modes
+/// can be removed from the shooting unknowns and from the Floquet analysis.
+fn rigid_modes_decouple(structure: &Structure, modes: &[LinearMode]) -> bool {
+    let n = structure.dofs();
+    modes.iter().filter(|m| m.rigid).all(|rigid| {
+        (1..=3).all(|k| {
+            let x: Vec<f64> = (0..n)
+                .map(|i| ((i * 5 + k * 11) as f64 * 0.754_877_666).sin() * k as f64)
+                .collect();
+            let shifted: Vec<f64> = x
+                .iter()
+                .zip(&rigid.shape)
+                .map(|(a, u)| a + 0.7 * u)
+                .collect();
+            let (mut f, mut g) = (vec![0.0; n], vec![0.0; n]);
+            structure.nonlinear_force(&x, &mut f);
+            structure.nonlinear_force(&shifted, &mut g);
+            let scale = f.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+            let invariant = f
+                .iter()
+                .zip(&g)
+                .all(|(a, b)| (a - b).abs() <= 1e-10 * scale);
+            let projection: f64 = linalg::dot(&f, &rigid.shape);
+            let norm_u = linalg::norm(&rigid.shape);
+            invariant && projection.abs() <= 1e-10 * scale * norm_u * (n as f64).sqrt()
+        })
+    })
 }
 
 /// The amplitude `c` at which `‖f_nl(c φ)‖ = ratio ‖K c φ‖`, by bisection in `log c`

@@ -111,3 +111,31 @@ fn continuation_is_independent_of_length_and_time_units() {
         );
     }
 }
+
+/// A free chain (rigid mode) whose cubic spring ties dof 0 to ground: the rigid mode is not a
+/// symmetry of the nonlinear system and must stay among the unknowns (review finding: the
+/// first point stalled at a residual of 1.3e-7). The branch of the elastic mode converges.
+#[test]
+fn rigid_mode_coupled_by_a_grounded_spring_is_kept() {
+    use crate::linalg::Mat;
+    use crate::model::{NonlinearElement, PolynomialSpring};
+    let structure = Structure::new(
+        Mat::<f64>::identity(2, 2),
+        Mat::from_fn(2, 2, |i, j| if i == j { 1.0 } else { -1.0 }),
+        vec![Box::new(PolynomialSpring::cubic(0, None, 0.5)) as Box<dyn NonlinearElement>],
+    )
+    .unwrap();
+    let modes = linear_modes(&structure).unwrap();
+    assert!(modes[0].rigid);
+    let start = Start::from_linear_mode(&structure, &modes, 1, None).unwrap();
+    assert_eq!(start.unknown_columns, 2);
+    let settings = Settings {
+        energy_max: 1.0,
+        ..Settings::default()
+    };
+    let branch = continue_branch(&structure, &start, &settings, |_| ControlFlow::Continue(()));
+    let branch = branch.unwrap();
+    assert_eq!(branch.stop, StopReason::EnergyMax);
+    // The Floquet analysis covers the whole 4-dimensional state space.
+    assert_eq!(branch.points[0].floquet.multipliers.len(), 4);
+}
