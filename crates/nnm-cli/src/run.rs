@@ -173,6 +173,9 @@ pub fn compute_all(
         .build()
         .context("cannot start worker threads")?;
     let log = Mutex::new(());
+    let total = requests.len();
+    let finished = std::sync::atomic::AtomicUsize::new(0);
+    let clock = Instant::now();
     Ok(pool.install(|| {
         requests
             .into_par_iter()
@@ -181,6 +184,14 @@ pub fn compute_all(
                 let result = compute_branch(structure, modes, &request, out, quiet, &log, |_| {
                     ControlFlow::Continue(())
                 });
+                let done = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                if total > 1 {
+                    let _guard = log.lock();
+                    eprintln!(
+                        "progress: {done}/{total} branches done ({:.1} s)",
+                        clock.elapsed().as_secs_f64()
+                    );
+                }
                 Outcome {
                     info: request.info,
                     result,
