@@ -943,8 +943,10 @@ fn tongue_outputs(
     report.line(&format!(
         "Continued past E ≈ 1e3, the (0,6) backbone turns back in energy and travels along a \
          tongue on which a third harmonic grows while the fundamental shrinks (`tongue.csv`). \
-         The branch passes {} turning point(s) in energy (at E = {}) and reaches the junction, \
-         where the fundamental vanishes, at E = {e_junction:.4}, ω = {f_junction:.6} rad/s. There \
+         The branch passes {} turning point(s) in energy (at E = {}: the fold where it leaves \
+         the backbone, and the energy minimum where it meets (1,12) and turns back onto the \
+         phase-shifted copy of the tongue, where the continuation stops). The junction, where \
+         the fundamental vanishes, is at E = {e_junction:.4}, ω = {f_junction:.6} rad/s. There \
          three times its frequency, {:.6}, matches the (1,12) backbone's {f112:.6} at the same \
          energy: mismatch {mismatch:.2e} rad/s ({:.1e} relative). The tongue spans E = {:.4} to \
          {:.4}.",
