@@ -1,5 +1,6 @@
 //! `nnm`: nonlinear normal modes from the command line (SPEC §5).
 
+mod bench;
 mod run;
 mod study;
 
@@ -60,6 +61,12 @@ enum Command {
         /// Branches computed at once (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+    },
+    /// Benchmark table: sensitivity vs finite-difference Jacobian on the same cases, same run.
+    Bench {
+        /// Repetitions of the single-evaluation case.
+        #[arg(long, default_value_t = 5)]
+        repeat: usize,
     },
     /// Run a built-in study end to end; its job file is written into DIR to edit and rerun.
     Example {
@@ -132,6 +139,7 @@ fn execute(cli: Cli) -> Result<()> {
             quick,
             threads,
         } => study::bladed_disk_study(&job, &out, &study::StudyOptions { quick, threads }),
+        Command::Bench { repeat } => bench::bench(repeat),
         Command::Example { which } => {
             let bladed_disk = matches!(which, Example::BladedDisk(_));
             let (name, text, args) = match which {

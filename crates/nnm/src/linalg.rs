@@ -203,10 +203,8 @@ impl Operator {
                     let xc = &x[c * x_stride..c * x_stride + n];
                     let oc = &mut out[c * out_stride..c * out_stride + n];
                     for (o, bounds) in oc.iter_mut().zip(row_start.windows(2)) {
-                        let (cols_i, vals_i) = (
-                            &col[bounds[0]..bounds[1]],
-                            &value[bounds[0]..bounds[1]],
-                        );
+                        let (cols_i, vals_i) =
+                            (&col[bounds[0]..bounds[1]], &value[bounds[0]..bounds[1]]);
                         let s: f64 = cols_i.iter().zip(vals_i).map(|(&j, &v)| v * xc[j]).sum();
                         *o += alpha * s;
                     }

@@ -1,0 +1,188 @@
+//! `nnm bench`: the benchmark table — each case with the sensitivity Jacobian and with finite
+//! differences, measured in the same run so the ratio is meaningful (absolute times depend on
+//! the machine).
+
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use nnm::continuation::{Branch, Settings, Start, continue_branch};
+use nnm::integrate::DOP853;
+use nnm::model::{BladedDisk, Structure, duffing, two_dof};
+use nnm::modes::{find_mode, linear_modes};
+use nnm::shooting::{JacobianMethod, Shooting, ShootingSettings};
+
+struct Row {
+    case: String,
+    method: &'static str,
+    seconds: f64,
+    points: usize,
+    newton: usize,
+    integrations: usize,
+    steps: usize,
+    rhs: usize,
+    tangents: usize,
+}
+
+const METHODS: [(JacobianMethod, &str); 2] = [
+    (JacobianMethod::Sensitivity, "sensitivity"),
+    (JacobianMethod::FiniteDifference, "finite-diff"),
+];
+
+fn start(structure: &Structure, label: &str) -> Result<Start> {
+    let modes = linear_modes(structure)?;
+    let (index, _) = find_mode(&modes, label, None).context("mode")?;
+    Ok(Start::from_linear_mode(structure, &modes, index, None)?)
+}
+
+fn branch_rows(
+    case: &str,
+    structure: &Structure,
+    start: &Start,
+    settings: &Settings,
+) -> Result<Vec<Row>> {
+    METHODS
+        .iter()
+        .map(|&(jacobian, method)| {
+            let settings = Settings {
+                jacobian,
+                ..settings.clone()
+            };
+            let clock = Instant::now();
+            let branch: Branch =
+                continue_branch(structure, start, &settings, |_| ControlFlow::Continue(()))?;
+            let s = branch.stats;
+            Ok(Row {
+                case: case.into(),
+                method,
+                seconds: clock.elapsed().as_secs_f64(),
+                points: s.points,
+                newton: s.newton_iterations,
+                integrations: s.shooting.integrations,
+                steps: s.shooting.integration.steps,
+                rhs: s.shooting.integration.rhs_evaluations,
+                tangents: s.shooting.integration.tangent_evaluations,
+            })
+        })
+        .collect()
+}
+
+/// One shooting evaluation (residual + Jacobian) and the monodromy at a converged point of
+/// the (1,5) backbone near +5%, repeated.
+fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<Vec<Row>> {
+    let settings = Settings {
+        frequency_shift_max: 0.05,
+        ..Settings::default()
+    };
+    let branch = continue_branch(structure, start, &settings, |_| ControlFlow::Continue(()))?;
+    let point = branch.points.last().context("no point")?;
+    METHODS
+        .iter()
+        .map(|&(jacobian, method)| {
+            let mut shooting = Shooting::new(
+                structure,
+                start.basis.clone(),
+                start.mass_basis.clone(),
+                start.unknown_columns,
+                start.omega,
+                &ShootingSettings {
+                    phase: settings.phase,
+                    jacobian,
+                    tableau: &DOP853,
+                    tolerance: settings.tolerance,
+                    integration_factor: settings.integration_factor,
+                    amplitude_scale: start.amplitude_scale,
+                },
+            );
+            let clock = Instant::now();
+            for _ in 0..repeat {
+                let evaluation = shooting.evaluate(&point.unknowns, &point.z0)?;
+                shooting.monodromy(&evaluation)?;
+            }
+            let s = shooting.stats;
+            Ok(Row {
+                case: "(1,5) residual+Jacobian+monodromy".into(),
+                method,
+                seconds: clock.elapsed().as_secs_f64() / repeat as f64,
+                points: 1,
+                newton: 0,
+                integrations: s.integrations / repeat,
+                steps: s.integration.steps / repeat,
+                rhs: s.integration.rhs_evaluations / repeat,
+                tangents: s.integration.tangent_evaluations / repeat,
+            })
+        })
+        .collect()
+}
+
+pub fn bench(repeat: usize) -> Result<()> {
+    let disk = BladedDisk::default().build()?;
+    let start_1_5 = start(&disk, "1,5")?;
+    let mut rows = shooting_rows(&disk, &start_1_5, repeat.max(1))?;
+    rows.extend(branch_rows(
+        "(1,5) backbone to +10%",
+        &disk,
+        &start_1_5,
+        &Settings {
+            frequency_shift_max: 0.10,
+            ..Settings::default()
+        },
+    )?);
+    let duffing = duffing(1.0, 1.0)?;
+    rows.extend(branch_rows(
+        "Duffing backbone to +50%, tol 1e-10",
+        &duffing,
+        &start(&duffing, "0")?,
+        &Settings {
+            tolerance: 1e-10,
+            frequency_shift_max: 0.5,
+            ..Settings::default()
+        },
+    )?);
+    let two = two_dof(0.5)?;
+    rows.extend(branch_rows(
+        "two-DOF in-phase to E = 100",
+        &two,
+        &start(&two, "0")?,
+        &Settings {
+            energy_max: 100.0,
+            ..Settings::default()
+        },
+    )?);
+    println!(
+        "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>7}",
+        "case",
+        "jacobian",
+        "time_s",
+        "points",
+        "newton",
+        "integr.",
+        "steps",
+        "rhs_evals",
+        "tangents",
+        "ratio"
+    );
+    for pair in rows.chunks(2) {
+        let base = pair[0].seconds;
+        for r in pair {
+            println!(
+                "{:<38} {:<12} {:>10.4} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>7.2}",
+                r.case,
+                r.method,
+                r.seconds,
+                r.points,
+                r.newton,
+                r.integrations,
+                r.steps,
+                r.rhs,
+                r.tangents,
+                r.seconds / base
+            );
+        }
+    }
+    println!(
+        "ratio: time relative to the sensitivity run of the same case (same run, same machine). \
+         The 3:1 tongue comparison is in the study report (`nnm example bladed-disk`)."
+    );
+    Ok(())
+}
