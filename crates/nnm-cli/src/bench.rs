@@ -92,6 +92,7 @@ fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<
                     tolerance: settings.tolerance,
                     integration_factor: settings.integration_factor,
                     amplitude_scale: start.amplitude_scale,
+                    half_period: true,
                 },
             );
             let clock = Instant::now();

@@ -150,6 +150,7 @@ struct Options {
     phase: Option<PhaseCondition>,
     integrator: Option<String>,
     symmetry: Option<bool>,
+    half_period: Option<bool>,
 }
 
 impl Options {
@@ -172,6 +173,7 @@ impl Options {
             phase: self.phase.or(defaults.phase),
             integrator: self.integrator.clone().or(defaults.integrator.clone()),
             symmetry: self.symmetry.or(defaults.symmetry),
+            half_period: self.half_period.or(defaults.half_period),
         }
     }
 
@@ -202,6 +204,7 @@ impl Options {
             jacobian: self.jacobian.unwrap_or(d.jacobian),
             tableau,
             integration_factor: self.integration_factor.unwrap_or(d.integration_factor),
+            half_period: self.half_period.unwrap_or(d.half_period),
         })
     }
 }

@@ -59,6 +59,9 @@ pub struct Settings {
     /// Integrator relative tolerance as a fraction of `tolerance` (default 1e-3: the
     /// integration error must sit well below the periodicity residual we converge to).
     pub integration_factor: f64,
+    /// Shoot over half a period when the system is odd (checked at sample states; default
+    /// true). Every point's full-period residual is still checked.
+    pub half_period: bool,
 }
 
 impl Default for Settings {
@@ -79,6 +82,7 @@ impl Default for Settings {
             jacobian: JacobianMethod::Sensitivity,
             tableau: &DOP853,
             integration_factor: 1e-3,
+            half_period: true,
         }
     }
 }
@@ -201,6 +205,25 @@ impl Start {
     }
 }
 
+/// Whether the vector field is odd, `a(-x) = -a(x)`, at sample states (cubic and quintic
+/// springs: yes; quadratic: no).
+fn is_odd<S: SecondOrderSystem + ?Sized>(system: &S) -> bool {
+    let n = system.dofs();
+    (1..=3).all(|k| {
+        let x: Vec<f64> = (0..n)
+            .map(|i| ((i * 3 + k * 7) as f64 * 0.569_840_29).sin() * k as f64)
+            .collect();
+        let minus: Vec<f64> = x.iter().map(|v| -v).collect();
+        let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+        system.acceleration(&x, &mut a);
+        system.acceleration(&minus, &mut b);
+        let scale = a.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+        a.iter()
+            .zip(&b)
+            .all(|(p, q)| (p + q).abs() <= 1e-12 * scale)
+    })
+}
+
 /// Whether every rigid-body mode `u` decouples from the nonlinear forces:
 /// `f_nl(x + c u) = f_nl(x)` and `uᵀ f_nl(x) = 0` at sample states (true of forces that depend
 /// on differences of displacements, as in a free-floating structure). Only then is a rigid
@@ -280,8 +303,11 @@ pub struct BranchPoint {
     /// Initial state `z0 = [x0; v0]`.
     pub z0: Vec<f64>,
     pub floquet: Floquet,
-    /// `‖H‖ / ‖z0‖` at convergence.
+    /// `‖W H‖ / ‖W z0‖` at convergence (of the half-period problem when shooting over half a
+    /// period).
     pub relative_residual: f64,
+    /// The same over the full period, `‖W (z(T) - z0)‖ / ‖W z0‖`.
+    pub full_period_residual: f64,
     /// Newton iterations of the accepted corrector.
     pub iterations: usize,
     /// Arclength step that led here (0 for the first point).
@@ -451,6 +477,9 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
         tolerance: settings.tolerance,
         integration_factor: settings.integration_factor,
         amplitude_scale: start.amplitude_scale,
+        half_period: settings.half_period
+            && settings.phase == PhaseCondition::ZeroVelocity
+            && is_odd(system),
     };
     let mut shooting = Shooting::new(
         system,
@@ -647,6 +676,14 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
     if !energy.is_finite() {
         return Err(format!("non-finite energy {energy}"));
     }
+    let full_period_residual = shooting
+        .full_period_residual(evaluation)
+        .map_err(|e| e.to_string())?;
+    if !(full_period_residual < 100.0 * settings.tolerance) {
+        return Err(format!(
+            "the motion is not half-wave symmetric (full-period residual {full_period_residual:.2e}); set half_period = false"
+        ));
+    }
     Ok(BranchPoint {
         index,
         energy,
@@ -655,6 +692,7 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
         z0: evaluation.z0.clone(),
         floquet,
         relative_residual: evaluation.relative_residual,
+        full_period_residual,
         iterations: corrected.iterations,
         step,
         unknowns: corrected.unknowns.clone(),

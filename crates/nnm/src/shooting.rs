@@ -52,7 +52,7 @@ pub enum JacobianMethod {
 pub struct Evaluation {
     /// `z0` (length 2n).
     pub z0: Vec<f64>,
-    /// `z(T)`.
+    /// `z(T)`, or `z(T/2)` when shooting over half a period.
     pub z_end: Vec<f64>,
     /// `T`.
     pub period: f64,
@@ -91,6 +91,7 @@ pub struct Shooting<'a, S: SecondOrderSystem + ?Sized> {
     jacobian_method: JacobianMethod,
     omega_ref: f64,
     amplitude_scale: f64,
+    half_period: bool,
     period_ref: f64,
     /// State directions of the unknowns, `2n × m`.
     state_basis: Vec<f64>,
@@ -115,6 +116,9 @@ pub struct ShootingSettings {
     /// nonlinearity becomes strong, it makes `a` and `τ` both O(1) in the nonlinear regime,
     /// so the arclength does not depend on the model's length unit.
     pub amplitude_scale: f64,
+    /// Shoot over half a period on `z(T/2) = -z0` (valid for odd systems, `g(-z) = -g(z)`,
+    /// and half-wave-symmetric motions): half the integration, and `Φ(T) = Φ(T/2)²`.
+    pub half_period: bool,
 }
 
 impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
@@ -165,6 +169,7 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
             jacobian_method: settings.jacobian,
             omega_ref,
             amplitude_scale: a,
+            half_period: settings.half_period,
             period_ref: 2.0 * std::f64::consts::PI / omega_ref,
             state_basis,
             integrator: Integrator::new(settings.tableau, tolerances),
@@ -320,12 +325,20 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         }
         let z0 = self.initial_state(u);
         let directions = std::mem::take(&mut self.state_basis);
-        let result = self.flow_with_derivative(&z0, period, &directions, None);
+        let (horizon, sign) = if self.half_period {
+            (0.5 * period, 1.0)
+        } else {
+            (period, -1.0)
+        };
+        let result = self.flow_with_derivative(&z0, horizon, &directions, None);
         self.state_basis = directions;
         let (flow, derivative) = result?;
 
         let weight = |i: usize| if i < n { 1.0 } else { 1.0 / self.omega_ref };
-        let mut rows: Vec<f64> = (0..n2).map(|i| weight(i) * (flow.z[i] - z0[i])).collect();
+        // H = z(T) - z0, or z(T/2) + z0 over half a period.
+        let mut rows: Vec<f64> = (0..n2)
+            .map(|i| weight(i) * (flow.z[i] + sign * z0[i]))
+            .collect();
         let weighted_z0: Vec<f64> = (0..n2).map(|i| weight(i) * z0[i]).collect();
         let relative_residual =
             linalg::norm(&rows) / linalg::norm(&weighted_z0).max(f64::MIN_POSITIVE);
@@ -334,14 +347,14 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         for c in 0..m {
             let s = &self.state_basis[c * n2..(c + 1) * n2];
             for i in 0..n2 {
-                jacobian[(i, c)] = weight(i) * (derivative[c * n2 + i] - s[i]);
+                jacobian[(i, c)] = weight(i) * (derivative[c * n2 + i] + sign * s[i]);
             }
         }
-        // ∂H/∂τ = T_ref g(z(T)) = T_ref [v(T); a(x(T))].
+        // ∂H/∂τ = (horizon/τ) g(z(horizon)): T_ref g(z(T)), or T_ref/2 g(z(T/2)).
         let mut g_end = vec![0.0; n2];
         field(self.system, &flow.z, &mut g_end);
         for i in 0..n2 {
-            jacobian[(i, m)] = weight(i) * self.period_ref * g_end[i];
+            jacobian[(i, m)] = weight(i) * (horizon / u[m]) * g_end[i];
         }
         if phase_rows == 1 {
             let mut g_ref = vec![0.0; n2];
@@ -425,7 +438,39 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
                 reduced[(r + k, c)] = linalg::dot(mb, &column[n..]);
             }
         }
+        if self.half_period {
+            // Odd system and z(T/2) = -z0: the second half-period map equals the first.
+            reduced = linalg::product(reduced.as_ref(), reduced.as_ref());
+        }
         Ok(reduced)
+    }
+
+    /// The periodicity residual over the full period, `‖W(z(T) - z0)‖ / ‖W z0‖`: for a
+    /// half-period evaluation, the second half is integrated (without sensitivities) to check
+    /// that the motion really is half-wave symmetric.
+    pub fn full_period_residual(
+        &mut self,
+        evaluation: &Evaluation,
+    ) -> Result<f64, IntegrationError> {
+        if !self.half_period {
+            return Ok(evaluation.relative_residual);
+        }
+        let half = 0.5 * evaluation.period;
+        let flow = self.integrate(
+            &evaluation.z_end,
+            half,
+            None,
+            Steps::Adaptive {
+                first_step: self.first_step,
+            },
+        )?;
+        let n = self.n;
+        let weight = |i: usize| if i < n { 1.0 } else { 1.0 / self.omega_ref };
+        let mismatch: Vec<f64> = (0..2 * n)
+            .map(|i| weight(i) * (flow.z[i] - evaluation.z0[i]))
+            .collect();
+        let scale: Vec<f64> = (0..2 * n).map(|i| weight(i) * evaluation.z0[i]).collect();
+        Ok(linalg::norm(&mismatch) / linalg::norm(&scale).max(f64::MIN_POSITIVE))
     }
 
     /// Updates the shooting tolerance (and the integrator's, in proportion).
