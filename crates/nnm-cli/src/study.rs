@@ -391,6 +391,27 @@ fn similarity(
         );
     }
     std::fs::write(out.join("similarity.csv"), per_point)?;
+    // Branches that turn back in energy have run into an internal resonance (a tongue).
+    let folded: Vec<String> = outcomes
+        .iter()
+        .filter_map(|o| {
+            let b = o.result.as_ref().ok()?;
+            let reversals = b
+                .points
+                .windows(3)
+                .filter(|w| (w[1].energy - w[0].energy) * (w[2].energy - w[1].energy) < 0.0)
+                .count();
+            let first = b
+                .points
+                .windows(2)
+                .find(|w| w[1].energy < w[0].energy)
+                .map(|w| w[0].energy)?;
+            Some(format!(
+                "({}) from E ≈ {first:.3e} ({reversals} turning points)",
+                o.info.mode_label
+            ))
+        })
+        .collect();
     std::fs::write(out.join("backbones.csv"), summary)?;
     report.line(&format!(
         "{} backbones, {total_points} points, {wall_time:.1} s wall time on {} threads. Each \
@@ -398,6 +419,14 @@ fn similarity(
         outcomes.len(),
         rayon::current_num_threads()
     ));
+    if !folded.is_empty() {
+        report.line(&format!(
+            "Branches that turn back in energy — they run into internal resonances (tongues, \
+             like the one of section 5) instead of continuing as plain backbones: {}. The fold \
+             of (1,14) is the S-shape that precedes its localization (section 4).",
+            folded.join("; ")
+        ));
+    }
     report.heading("3. Similar and nonsimilar modes");
     report.line(
         "The shape angle is the angle, in the mass metric, between the displacement at the \
