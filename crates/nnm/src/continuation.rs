@@ -547,6 +547,25 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
                 continue;
             }
         };
+        // A corrector that converged slowly or far from the prediction may have landed on a
+        // neighbouring branch (tangents there can be parallel, so the angle test alone misses
+        // it): retry with a smaller step. On a smooth branch the correction is ~κs²/2, below
+        // s/4 whenever the turn-angle test passes.
+        let correction = linalg::norm(
+            &corrected
+                .unknowns
+                .iter()
+                .zip(&predicted)
+                .map(|(a, b)| a - b)
+                .collect::<Vec<f64>>(),
+        );
+        let suspicious =
+            correction > 0.5 * step || corrected.iterations > 2 * settings.target_iterations.max(1);
+        if suspicious && !at_min_step {
+            stats.rejected_steps += 1;
+            step *= 0.5;
+            continue;
+        }
         let t_new = tangent(&corrected.evaluation, &t);
         if linalg::dot(&t_new, &t) < settings.max_turn_angle.cos() && !at_min_step {
             stats.rejected_steps += 1;

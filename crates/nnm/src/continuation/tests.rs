@@ -139,3 +139,29 @@ fn rigid_mode_coupled_by_a_grounded_spring_is_kept() {
     // The Floquet analysis covers the whole 4-dimensional state space.
     assert_eq!(branch.points[0].floquet.multipliers.len(), 4);
 }
+
+/// Review finding: at the default step, half-period shooting once jumped over the 3:1 tongue
+/// of the two-DOF in-phase branch (a 7-iteration corrector landed on a neighbouring branch
+/// with a parallel tangent). With slow or far-off correctors rejected, full- and half-period
+/// shooting follow the same tongue: the same highest frequency on the way to E = 1e4.
+#[test]
+fn two_dof_in_phase_branch_follows_its_tongue_with_either_formulation() {
+    let structure = crate::model::two_dof(0.5).unwrap();
+    let highest = |half_period: bool| {
+        let settings = Settings {
+            energy_max: 1e4,
+            half_period,
+            ..Settings::default()
+        };
+        let branch = backbone(&structure, 0, &settings);
+        assert_eq!(branch.stop, StopReason::EnergyMax);
+        branch
+            .points
+            .iter()
+            .map(|p| p.frequency)
+            .fold(0.0, f64::max)
+    };
+    let (half, full) = (highest(true), highest(false));
+    assert!(half > 1.40, "the tongue peaks near 1.408 rad/s; got {half}");
+    assert!((half - full).abs() < 1e-3, "half {half} vs full {full}");
+}
