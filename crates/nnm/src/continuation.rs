@@ -205,22 +205,44 @@ impl Start {
     }
 }
 
-/// Whether the vector field is odd, `a(-x) = -a(x)`, at sample states (cubic and quintic
-/// springs: yes; quadratic: no).
-fn is_odd<S: SecondOrderSystem + ?Sized>(system: &S) -> bool {
+/// Whether the vector field is odd, `a(-x) = -a(x)` (cubic and quintic springs: yes;
+/// quadratic: no), checked at sample states of size `amplitude` (where the nonlinearity is
+/// significant, so the verdict does not depend on the length unit). The even part
+/// `a(x) + a(-x)` must vanish relative to the nonlinear part, estimated by `a(x) - 2 a(x/2)`
+/// (the linear part cancels in both).
+fn is_odd<S: SecondOrderSystem + ?Sized>(system: &S, amplitude: f64) -> bool {
     let n = system.dofs();
     (1..=3).all(|k| {
-        let x: Vec<f64> = (0..n)
-            .map(|i| ((i * 3 + k * 7) as f64 * 0.569_840_29).sin() * k as f64)
+        let pattern: Vec<f64> = (0..n)
+            .map(|i| ((i * 3 + k * 7) as f64 * 0.569_840_29).sin())
+            .collect();
+        let peak = pattern
+            .iter()
+            .fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
+        let x: Vec<f64> = pattern
+            .iter()
+            .map(|v| v / peak * amplitude * k as f64)
             .collect();
         let minus: Vec<f64> = x.iter().map(|v| -v).collect();
-        let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+        let half: Vec<f64> = x.iter().map(|v| 0.5 * v).collect();
+        let (mut a, mut b, mut c) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         system.acceleration(&x, &mut a);
         system.acceleration(&minus, &mut b);
-        let scale = a.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
-        a.iter()
+        system.acceleration(&half, &mut c);
+        let even = a
+            .iter()
             .zip(&b)
-            .all(|(p, q)| (p + q).abs() <= 1e-12 * scale)
+            .map(|(p, q)| (p + q).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let nonlinear = a
+            .iter()
+            .zip(&c)
+            .map(|(p, q)| (p - 2.0 * q).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let total = linalg::norm(&a);
+        even <= 1e-10 * nonlinear + 1e-14 * total
     })
 }
 
@@ -479,7 +501,7 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
         amplitude_scale: start.amplitude_scale,
         half_period: settings.half_period
             && settings.phase == PhaseCondition::ZeroVelocity
-            && is_odd(system),
+            && is_odd(system, start.amplitude_scale),
     };
     let mut shooting = Shooting::new(
         system,
@@ -512,7 +534,15 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
         settings,
         &mut stats.newton_iterations,
     )
-    .map_err(ContinuationError::FirstPoint)?;
+    .map_err(|why| {
+        ContinuationError::FirstPoint(if shooting.half_period() {
+            format!(
+                "{why} (shooting over half a period; set half_period = false if the motion is not half-wave symmetric)"
+            )
+        } else {
+            why
+        })
+    })?;
     let mut t = tangent(&first.evaluation, &pin);
     let point = make_point(&mut shooting, &first, &t, 0, 0.0, settings)
         .map_err(|e| ContinuationError::FirstPoint(e.to_string()))?;

@@ -290,12 +290,13 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
                 let flow = self.integrate(z0, period, None, first_step)?;
                 self.first_step = flow.steps.first().copied();
                 let mut derivative = vec![0.0; n2 * k];
-                let z_scale = linalg::norm(z0).max(f64::MIN_POSITIVE);
+                let z_scale = weighted_norm(z0, self.n, self.omega_ref).max(f64::MIN_POSITIVE);
                 for c in 0..k {
                     let d = &directions[c * n2..(c + 1) * n2];
-                    // Forward difference with δ‖d‖ ≈ √ε_mach ‖z0‖: balances truncation against
+                    // Forward difference with δ‖Wd‖ ≈ √ε_mach ‖W z0‖: balances truncation against
                     // round-off in the (smooth, same-steps) discrete flow map.
-                    let delta = 1e-8 * z_scale / linalg::norm(d).max(f64::MIN_POSITIVE);
+                    let d_scale = weighted_norm(d, self.n, self.omega_ref);
+                    let delta = 1e-8 * z_scale / d_scale.max(f64::MIN_POSITIVE);
                     let zp: Vec<f64> = z0.iter().zip(d).map(|(z, d)| z + delta * d).collect();
                     let perturbed =
                         self.integrate(&zp, period, None, Steps::Replay(&flow.steps))?;
@@ -473,8 +474,22 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         Ok(linalg::norm(&mismatch) / linalg::norm(&scale).max(f64::MIN_POSITIVE))
     }
 
+    /// Whether the problem is shot over half a period.
+    pub fn half_period(&self) -> bool {
+        self.half_period
+    }
+
     /// Updates the shooting tolerance (and the integrator's, in proportion).
     pub fn set_tolerance(&mut self, tolerance: f64) {
         self.integrator.tolerances.relative = self.integration_factor * tolerance;
     }
+}
+
+/// `‖W z‖` with `W = diag(I, I/ω)`: displacements and velocities on one scale.
+fn weighted_norm(z: &[f64], n: usize, omega: f64) -> f64 {
+    z.iter()
+        .enumerate()
+        .map(|(i, v)| if i < n { v * v } else { (v / omega).powi(2) })
+        .sum::<f64>()
+        .sqrt()
 }

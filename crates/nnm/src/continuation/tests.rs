@@ -165,3 +165,31 @@ fn two_dof_in_phase_branch_follows_its_tongue_with_either_formulation() {
     assert!(half > 1.40, "the tongue peaks near 1.408 rad/s; got {half}");
     assert!((half - full).abs() < 1e-3, "half {half} vs full {full}");
 }
+
+/// Review finding: oddness was judged on the total acceleration at unit-size states, so a small
+/// even (quadratic) term went unnoticed when lengths were in small units, half-period shooting
+/// was used on a motion that is not half-wave symmetric, and the first point failed. Here the
+/// two-DOF system with a quadratic term, lengths scaled by 1e13: oddness is now judged at the
+/// amplitude where the nonlinearity matters, against the nonlinear part.
+#[test]
+fn even_nonlinearity_in_small_units_disables_half_period_shooting() {
+    use crate::linalg::Mat;
+    use crate::model::{NonlinearElement, PolynomialSpring};
+    let (quadratic, cubic) = (0.3 * 1e-13, 0.5 * 1e-26);
+    let structure = Structure::new(
+        Mat::<f64>::identity(2, 2),
+        Mat::from_fn(2, 2, |i, j| if i == j { 2.0 } else { -1.0 }),
+        vec![
+            Box::new(PolynomialSpring::cubic(0, None, cubic)) as Box<dyn NonlinearElement>,
+            Box::new(PolynomialSpring::new(0, None, quadratic, 2)),
+        ],
+    )
+    .unwrap();
+    let settings = Settings {
+        max_points: 15,
+        ..Settings::default()
+    };
+    let branch = backbone(&structure, 0, &settings);
+    assert_eq!(branch.points.len(), 15);
+    assert!(branch.points.iter().all(|p| p.full_period_residual < 1e-7));
+}
