@@ -298,34 +298,37 @@ fn backbones_figure(outcomes: &[Outcome], out: &Path, report: &mut Report) -> Re
     Ok(())
 }
 
-/// Frequency of a branch at energy `e`, on its first crossing of `e` (None if it never reaches
-/// it): quadratic interpolation in `log E` through the bracketing points and the next one
-/// (linear when only two are available). Along a backbone sampled every ~10% in energy this
-/// is accurate to ~1e-6 relative, where linear interpolation gives ~1e-4.
+/// Frequency of a branch at energy `e`, by cubic Lagrange interpolation in `log E` through the
+/// points around its crossing of `e` (fewer when the branch is short or folds there). `None`
+/// when the branch never reaches `e` or crosses it more than once (it folds: the frequency at
+/// that energy is not unique).
 fn frequency_at(branch: &Branch, e: f64) -> Option<f64> {
     let p = &branch.points;
-    let k = p
-        .windows(2)
-        .position(|w| (w[0].energy - e) * (w[1].energy - e) <= 0.0 && w[0].energy != w[1].energy)?;
+    let crossings: Vec<usize> = (0..p.len().saturating_sub(1))
+        .filter(|&k| {
+            (p[k].energy - e) * (p[k + 1].energy - e) <= 0.0 && p[k].energy != p[k + 1].energy
+        })
+        .collect();
+    let [k] = crossings[..] else { return None };
+    // Nodes k-1..=k+2 on the monotone stretch around the crossing.
+    let rising = p[k + 1].energy > p[k].energy;
+    let monotone = |a: usize, b: usize| (p[b].energy > p[a].energy) == rising;
+    let lo = if k > 0 && monotone(k - 1, k) {
+        k - 1
+    } else {
+        k
+    };
+    let hi = if k + 2 < p.len() && monotone(k + 1, k + 2) {
+        k + 2
+    } else {
+        k + 1
+    };
     let x = e.ln();
-    let nodes: Vec<(f64, f64)> = p[k..(k + 3).min(p.len())]
+    let nodes: Vec<(f64, f64)> = p[lo..=hi]
         .iter()
         .map(|q| (q.energy.ln(), q.frequency))
         .collect();
-    // Lagrange interpolation through the nodes (2 or 3 of them).
-    Some(
-        nodes
-            .iter()
-            .enumerate()
-            .map(|(i, &(xi, yi))| {
-                nodes
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| *j != i)
-                    .fold(yi, |acc, (_, &(xj, _))| acc * (x - xj) / (xi - xj))
-            })
-            .sum(),
-    )
+    Some(lagrange(&nodes, x))
 }
 
 fn similarity(
@@ -363,7 +366,7 @@ fn similarity(
             .iter()
             .map(|&e| {
                 frequency_at(branch, e).map_or(String::from("—"), |f| {
-                    format!("{:+.3}%", 100.0 * (f / linear.frequency - 1.0))
+                    format!("{:+.2}%", 100.0 * (f / linear.frequency - 1.0))
                 })
             })
             .collect();
@@ -420,10 +423,14 @@ fn similarity(
         rayon::current_num_threads()
     ));
     if !folded.is_empty() {
+        let s_shape = if folded.iter().any(|f| f.starts_with("(1,14)")) {
+            " The fold of (1,14) is the S-shape that precedes its localization (section 4)."
+        } else {
+            ""
+        };
         report.line(&format!(
-            "Branches that turn back in energy — they run into internal resonances (tongues, \
-             like the one of section 5) instead of continuing as plain backbones: {}. The fold \
-             of (1,14) is the S-shape that precedes its localization (section 4).",
+            "Branches that turn back in energy — a fold, or an internal resonance (a tongue, like \
+             the one of section 5) met before the energy limit: {}.{s_shape}",
             folded.join("; ")
         ));
     }
@@ -434,6 +441,10 @@ fn similarity(
          does not change with energy (`similarity.csv` has it for every point).",
     );
     report.line(&table);
+    report.line(
+        "Shifts by cubic interpolation in log E between computed points; — where the branch \
+         does not reach that energy or passes it more than once (it folds there).",
+    );
     let angle = |label: &str| {
         outcomes
             .iter()
@@ -569,8 +580,9 @@ fn localization(
 struct TonguePoint {
     point: BranchPoint,
     /// Fundamental, signed by its projection on the starting mode (its sign flips where it
-    /// vanishes), and third harmonic.
+    /// vanishes), that projection itself, and third harmonic.
     a1: f64,
+    p1: f64,
     a3: f64,
 }
 
@@ -587,7 +599,7 @@ struct Tongue {
 
 /// Real fundamental coefficient of the displacement (motions from rest are even in time, so
 /// the coefficients are real) projected on `shape`, and the third-harmonic amplitude.
-fn signed_harmonics(states: &[Vec<f64>], n: usize, shape: &[f64]) -> (f64, f64) {
+fn signed_harmonics(states: &[Vec<f64>], n: usize, shape: &[f64]) -> (f64, f64, f64) {
     let samples = states.len() - 1;
     let mut c1 = vec![0.0; n];
     for (j, z) in states[..samples].iter().enumerate() {
@@ -600,7 +612,55 @@ fn signed_harmonics(states: &[Vec<f64>], n: usize, shape: &[f64]) -> (f64, f64) 
     let projection: f64 = c1.iter().zip(shape).map(|(c, s)| c * s).sum::<f64>() / norm;
     let magnitude = c1.iter().map(|c| c * c).sum::<f64>().sqrt();
     let a3 = harmonic_amplitudes(states, n, 3)[2];
-    (magnitude.copysign(projection), a3)
+    (magnitude.copysign(projection), projection, a3)
+}
+
+/// Lagrange interpolation through `nodes` at `x`.
+fn lagrange(nodes: &[(f64, f64)], x: f64) -> f64 {
+    nodes
+        .iter()
+        .enumerate()
+        .map(|(i, &(xi, yi))| {
+            nodes
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .fold(yi, |acc, (_, &(xj, _))| acc * (x - xj) / (xi - xj))
+        })
+        .sum()
+}
+
+/// Where the fundamental's projection vanishes between the last two of `points` (and `next`),
+/// by quadratic interpolation along the branch through the last three points: energy and
+/// frequency there. The junction sits at the tongue's energy minimum, where linear
+/// interpolation in energy would be biased upwards.
+fn junction_between(points: &[TonguePoint], next: &TonguePoint) -> (f64, f64) {
+    let mut chain: Vec<&TonguePoint> = points.iter().rev().take(2).collect();
+    chain.reverse();
+    chain.push(next);
+    let along = |f: &dyn Fn(&TonguePoint) -> f64| -> Vec<(f64, f64)> {
+        chain
+            .iter()
+            .enumerate()
+            .map(|(k, t)| (k as f64, f(t)))
+            .collect()
+    };
+    let projection = along(&|t| t.p1);
+    let (mut lo, mut hi) = ((chain.len() - 2) as f64, (chain.len() - 1) as f64);
+    let sign_lo = lagrange(&projection, lo).signum();
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if lagrange(&projection, mid).signum() == sign_lo {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let s = 0.5 * (lo + hi);
+    (
+        lagrange(&along(&|t| t.point.energy), s),
+        lagrange(&along(&|t| t.point.frequency), s),
+    )
 }
 
 /// Continues (0,6) past its fold along the tongue until the fundamental changes sign (the
@@ -662,34 +722,26 @@ fn tongue(
                     return ControlFlow::Break(());
                 }
             };
-            let (a1, a3) = signed_harmonics(&states, n, &start_mode.shape);
+            let (a1, p1, a3) = signed_harmonics(&states, n, &start_mode.shape);
+            let next = TonguePoint {
+                point: p.clone(),
+                a1,
+                p1,
+                a3,
+            };
             if let [.., before, last] = points.as_slice() {
                 let rising = |a: &TonguePoint, b: &TonguePoint| b.point.energy > a.point.energy;
-                let next = TonguePoint {
-                    point: p.clone(),
-                    a1,
-                    a3,
-                };
                 if rising(before, last) != rising(last, &next) {
                     folds.push(points.len() - 1);
                 }
             }
             let crossed = points
                 .last()
-                .is_some_and(|last| !folds.is_empty() && last.a1 * a1 < 0.0);
+                .is_some_and(|last| !folds.is_empty() && last.p1 * p1 < 0.0);
             if crossed {
-                let last = points.last().expect("non-empty");
-                let t = last.a1 / (last.a1 - a1);
-                junction = Some((
-                    last.point.energy + t * (p.energy - last.point.energy),
-                    last.point.frequency + t * (p.frequency - last.point.frequency),
-                ));
+                junction = Some(junction_between(&points, &next));
             }
-            points.push(TonguePoint {
-                point: p.clone(),
-                a1,
-                a3,
-            });
+            points.push(next);
             if points.len() % 20 == 0 {
                 eprintln!(
                     "study: tongue ({label}) point {}: E = {:.4e}, f = {:.6}, A3/A1 = {:.3}",
@@ -783,10 +835,16 @@ fn tongue_outputs(
             .min(w[1].floquet.multipliers.len());
         // Multipliers are sorted by modulus, so index k is not the same multiplier on both
         // sides; pair each of the first point's with the nearest of the second's.
-        for k in (0..count).filter(|k| !w[0].floquet.trivial.contains(k)) {
+        // One member of each conjugate pair, on the unit circle (a period-tripling
+        // multiplier of a conservative orbit lies on it).
+        let on_circle = |p: &BranchPoint, k: usize| {
+            let (re, im) = p.floquet.multipliers[k];
+            !p.floquet.trivial.contains(&k) && im > 0.0 && (re.hypot(im) - 1.0).abs() < 1e-3
+        };
+        for k in (0..count).filter(|&k| on_circle(&w[0], k)) {
             let (re, im) = w[0].floquet.multipliers[k];
             let Some(j) = (0..count)
-                .filter(|j| !w[1].floquet.trivial.contains(j))
+                .filter(|&j| on_circle(&w[1], j))
                 .min_by(|&a, &b| {
                     let d = |j: usize| {
                         let (r2, i2) = w[1].floquet.multipliers[j];
@@ -800,7 +858,14 @@ fn tongue_outputs(
             let (a, b) = (angle_offset(&w[0], k), angle_offset(&w[1], j));
             if a * b < 0.0 {
                 let t = a / (a - b);
-                crossings.push(w[0].energy + t * (w[1].energy - w[0].energy));
+                let e = w[0].energy + t * (w[1].energy - w[0].energy);
+                // Degenerate (±d) pairs cross together: count each energy once.
+                if !crossings
+                    .iter()
+                    .any(|&c: &f64| (c - e).abs() <= 1e-6 * e.abs())
+                {
+                    crossings.push(e);
+                }
             }
         }
     }
@@ -970,17 +1035,18 @@ fn tongue_outputs(
         .collect();
     let tongue_range = tongue.points[first_fold..]
         .iter()
-        .fold((f64::INFINITY, 0.0f64), |(a, b), t| {
+        .fold((e_junction, 0.0f64), |(a, b), t| {
             (a.min(t.point.energy), b.max(t.point.energy))
         });
     report.heading("5. The 3:1 internal resonance between (0,6) and (1,12)");
     report.line(&format!(
         "Continued past E ≈ 1e3, the (0,6) backbone turns back in energy and travels along a \
          tongue on which a third harmonic grows while the fundamental shrinks (`tongue.csv`). \
-         The branch passes {} turning point(s) in energy (at E = {}: the fold where it leaves \
-         the backbone, and the energy minimum where it meets (1,12) and turns back onto the \
-         phase-shifted copy of the tongue, where the continuation stops). The junction, where \
-         the fundamental vanishes, is at E = {e_junction:.4}, ω = {f_junction:.6} rad/s. There \
+         The branch passes {} turning point(s) in energy (at E = {}; the first is the fold \
+         where it leaves the backbone, the last the energy minimum where it meets (1,12) and \
+         would turn back onto the phase-shifted copy of the tongue — the continuation stops \
+         there). The junction, where the fundamental vanishes, is at E = {e_junction:.4}, \
+         ω = {f_junction:.6} rad/s. There \
          three times its frequency, {:.6}, matches the (1,12) backbone's {f112:.6} at the same \
          energy: mismatch {mismatch:.2e} rad/s ({:.1e} relative). The tongue spans E = {:.4} to \
          {:.4}.",

@@ -86,6 +86,7 @@ struct PointRecord<'a> {
     stable: bool,
     max_floquet_modulus: f64,
     relative_residual: f64,
+    full_period_residual: f64,
     iterations: usize,
     step: f64,
     /// Initial state `[x0; v0]`.
@@ -106,6 +107,7 @@ impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
             stable: p.floquet.stable,
             max_floquet_modulus: p.floquet.max_modulus,
             relative_residual: p.relative_residual,
+            full_period_residual: p.full_period_residual,
             iterations: p.iterations,
             step: p.step,
             z0: &p.z0,
@@ -151,7 +153,7 @@ impl std::fmt::Display for Number {
 }
 
 /// Columns of `<name>.csv`, in order.
-pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step";
+pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual";
 
 /// Streams one branch to `<dir>/<name>.csv` and `<dir>/<name>.json`.
 pub struct BranchWriter {
@@ -195,7 +197,7 @@ impl BranchWriter {
     pub fn write_point(&mut self, p: &BranchPoint) -> Result<(), OutputError> {
         writeln!(
             self.csv,
-            "{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{}",
             p.index,
             Number(p.energy),
             Number(p.frequency),
@@ -204,7 +206,8 @@ impl BranchWriter {
             Number(p.floquet.max_modulus),
             Number(p.relative_residual),
             p.iterations,
-            Number(p.step)
+            Number(p.step),
+            Number(p.full_period_residual)
         )
         .map_err(output_error(&self.csv_path))?;
         let record = serde_json::to_string(&PointRecord::from(p)).expect("serialisable");
