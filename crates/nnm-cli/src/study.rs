@@ -38,9 +38,15 @@ const QUICK_MODES: [&str; 7] = ["0,2", "0,6", "0,14", "1,0", "1,5", "1,12", "1,1
 const REFERENCE_ENERGIES: [f64; 2] = [10.0, 100.0];
 /// Samples per period for time series and harmonics.
 const SAMPLES: usize = 256;
-/// Largest arclength step on the tongue (relative to the amplitude): the tongue runs close to
-/// other branches near its root, and coarser steps were seen to jump onto one of them.
+/// Largest arclength step on the tongue (relative to the amplitude). The tongue runs close to
+/// other branches near its root: before slow or far-off correctors were rejected, a step of
+/// 0.1 jumped onto one of them; now 0.02 to 0.25 all follow it (fold at E = 1470.78, junction
+/// at 69.36). 0.05 resolves the junction well enough to see the energy minimum there and to
+/// locate it to ~1e-8 (0.1: ~6e-7), for twice the cost of 0.1.
 const TONGUE_MAX_STEP: f64 = 0.05;
+/// Largest step on the (1,12) backbone the tongue is compared with: finely sampled, so that
+/// interpolating its frequency at the junction's energy is accurate to ~1e-8.
+const REFERENCE_MAX_STEP: f64 = 0.03;
 
 fn name_of(label: &str) -> String {
     format!("mode-{}", label.replace(',', "-"))
@@ -800,7 +806,7 @@ fn tongue_outputs(
         settings: Settings {
             energy_max: 3.0 * e_junction,
             frequency_shift_max: f64::INFINITY,
-            max_step: TONGUE_MAX_STEP,
+            max_step: REFERENCE_MAX_STEP,
             ..settings.clone()
         },
     };
