@@ -7,10 +7,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use nnm::continuation::{Branch, Settings, Start, continue_branch};
-use nnm::integrate::DOP853;
 use nnm::model::{BladedDisk, Structure, duffing, two_dof};
 use nnm::modes::{find_mode, linear_modes};
-use nnm::shooting::{JacobianMethod, Shooting, ShootingSettings};
+use nnm::shooting::JacobianMethod;
 
 struct Row {
     case: String,
@@ -79,20 +78,11 @@ fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<
     METHODS
         .iter()
         .map(|&(jacobian, method)| {
-            let mut shooting = Shooting::new(
+            let mut shooting = start.shooting(
                 structure,
-                start.basis.clone(),
-                start.mass_basis.clone(),
-                start.unknown_columns,
-                start.omega,
-                &ShootingSettings {
-                    phase: settings.phase,
+                &Settings {
                     jacobian,
-                    tableau: &DOP853,
-                    tolerance: settings.tolerance,
-                    integration_factor: settings.integration_factor,
-                    amplitude_scale: start.amplitude_scale,
-                    half_period: true,
+                    ..settings.clone()
                 },
             );
             let clock = Instant::now();

@@ -197,6 +197,34 @@ impl Start {
 }
 
 impl Start {
+    /// The shooting problem of a branch from this start: its unknowns, scales and settings
+    /// (half-period shooting only for odd systems under the zero-velocity phase condition).
+    pub fn shooting<'a, S: SecondOrderSystem + ?Sized>(
+        &self,
+        system: &'a S,
+        settings: &Settings,
+    ) -> Shooting<'a, S> {
+        let shooting_settings = ShootingSettings {
+            phase: settings.phase,
+            jacobian: settings.jacobian,
+            tableau: settings.tableau,
+            tolerance: settings.tolerance,
+            integration_factor: settings.integration_factor,
+            amplitude_scale: self.amplitude_scale,
+            half_period: settings.half_period
+                && settings.phase == PhaseCondition::ZeroVelocity
+                && is_odd(system, self.amplitude_scale),
+        };
+        Shooting::new(
+            system,
+            self.basis.clone(),
+            self.mass_basis.clone(),
+            self.unknown_columns,
+            self.omega,
+            &shooting_settings,
+        )
+    }
+
     /// The same start with the unknowns spanning every elastic mode (no symmetry restriction).
     pub fn unrestricted(mut self) -> Self {
         self.unknown_columns = self.basis.len() / (self.z0.len() / 2);
@@ -278,6 +306,8 @@ fn rigid_modes_decouple(structure: &Structure, modes: &[LinearMode]) -> bool {
     })
 }
 
+// Negated comparisons below are deliberate: a NaN ratio or residual must count as failure.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 /// The amplitude `c` at which `‖f_nl(c φ)‖ = ratio ‖K c φ‖`, by bisection in `log c`
 /// (1 when the model is linear along `φ`).
 fn weakly_nonlinear_amplitude(structure: &Structure, shape: &[f64], ratio: f64) -> f64 {
@@ -492,25 +522,7 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
     mut observer: impl FnMut(&BranchPoint) -> ControlFlow<()>,
 ) -> Result<Branch, ContinuationError> {
     settings.validate()?;
-    let shooting_settings = ShootingSettings {
-        phase: settings.phase,
-        jacobian: settings.jacobian,
-        tableau: settings.tableau,
-        tolerance: settings.tolerance,
-        integration_factor: settings.integration_factor,
-        amplitude_scale: start.amplitude_scale,
-        half_period: settings.half_period
-            && settings.phase == PhaseCondition::ZeroVelocity
-            && is_odd(system, start.amplitude_scale),
-    };
-    let mut shooting = Shooting::new(
-        system,
-        start.basis.clone(),
-        start.mass_basis.clone(),
-        start.unknown_columns,
-        start.omega,
-        &shooting_settings,
-    );
+    let mut shooting = start.shooting(system, settings);
     let mut stats = BranchStats::default();
     let mut points: Vec<BranchPoint> = Vec::new();
 
@@ -709,6 +721,7 @@ fn step_factor(iterations: usize, target: usize) -> f64 {
     ratio.sqrt().clamp(0.5, 2.0)
 }
 
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn make_point<S: SecondOrderSystem + ?Sized>(
     shooting: &mut Shooting<'_, S>,
     corrected: &Corrected,

@@ -10,12 +10,11 @@ use std::time::Instant;
 
 use nnm::continuation::{Branch, BranchPoint, Settings, Start, StopReason, continue_branch};
 use nnm::floquet::{self, DEFAULT_STABILITY_TOLERANCE};
-use nnm::integrate::DOP853;
 use nnm::linalg::Mat;
 use nnm::model::{BladedDisk, Structure, two_dof};
 use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
 use nnm::reference::{duffing_amplitude, duffing_period};
-use nnm::shooting::{JacobianMethod, Shooting, ShootingSettings};
+use nnm::shooting::{JacobianMethod, Shooting};
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
@@ -117,20 +116,12 @@ fn shooting<'a>(
     jacobian: JacobianMethod,
     half_period: bool,
 ) -> Shooting<'a, Structure> {
-    Shooting::new(
+    start.shooting(
         structure,
-        start.basis.clone(),
-        start.mass_basis.clone(),
-        start.unknown_columns,
-        start.omega,
-        &ShootingSettings {
-            phase: settings.phase,
+        &Settings {
             jacobian,
-            tableau: &DOP853,
-            tolerance: settings.tolerance,
-            integration_factor: settings.integration_factor,
-            amplitude_scale: start.amplitude_scale,
             half_period,
+            ..settings.clone()
         },
     )
 }

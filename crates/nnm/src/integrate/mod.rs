@@ -263,8 +263,8 @@ impl Integrator {
             }
             let finite = ws.z_new.iter().all(|v| v.is_finite());
 
-            // Step-size control (adaptive mode only).
-            if replay.is_none() {
+            // Step-size control (adaptive mode only): the size of the next step, or a retry.
+            let next = if replay.is_none() {
                 let err = if finite {
                     error_norm(tab, &self.tolerances, h, &z, &ws.z_new, &ws.k_z, n2)
                 } else {
@@ -286,41 +286,32 @@ impl Integrator {
                     continue;
                 }
                 // After a rejection, do not grow at once (Hairer's safeguard against ping-pong).
-                let next = if last_rejected {
-                    h * factor.min(1.0)
+                let grow = if last_rejected {
+                    factor.min(1.0)
                 } else {
-                    h * factor
+                    factor
                 };
                 last_rejected = false;
-                self.finish_step(
-                    system,
-                    h,
-                    columns,
-                    n2,
-                    &mut phi,
-                    first_phi_ready,
-                    &mut stats,
-                );
-                t += h;
-                accepted.push(h);
-                h = next;
+                h * grow
             } else {
                 if !finite {
                     return Err(IntegrationError::NotFinite { t });
                 }
-                self.finish_step(
-                    system,
-                    h,
-                    columns,
-                    n2,
-                    &mut phi,
-                    first_phi_ready,
-                    &mut stats,
-                );
-                t += h;
-                accepted.push(h);
                 step_index += 1;
-            }
+                h
+            };
+            self.finish_step(
+                system,
+                h,
+                columns,
+                n2,
+                &mut phi,
+                first_phi_ready,
+                &mut stats,
+            );
+            t += h;
+            accepted.push(h);
+            h = next;
             let ws = &mut self.ws;
             z.copy_from_slice(&ws.z_new);
             stats.steps += 1;

@@ -3,6 +3,9 @@
 //! Coefficients are the published ones: Dormand & Prince (1980) for DOPRI5, and Hairer,
 //! Nørsett & Wanner, *Solving ODEs I*, §II.10 / the `DOP853` code, for the 8(5,3) pair.
 
+// The coefficients are quoted with all the digits they were published with.
+#![allow(clippy::excessive_precision)]
+
 /// How the local error of a step is estimated.
 #[derive(Debug)]
 pub enum ErrorEstimate {
