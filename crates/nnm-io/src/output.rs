@@ -95,6 +95,9 @@ struct PointRecord<'a> {
     multipliers: Vec<[f64; 2]>,
     /// Indices into `multipliers` of the two trivial ones (at +1).
     trivial_multipliers: [usize; 2],
+    /// Largest deviation of the non-trivial pairs from `ρ_k ρ_{N-1-k} = 1`: an accuracy
+    /// estimate of the multipliers.
+    reciprocity_defect: f64,
 }
 
 impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
@@ -118,6 +121,7 @@ impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
                 .map(|&(re, im)| [re, im])
                 .collect(),
             trivial_multipliers: p.floquet.trivial,
+            reciprocity_defect: p.floquet.reciprocity_defect,
         }
     }
 }

@@ -732,8 +732,17 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
 ) -> Result<BranchPoint, String> {
     let evaluation = &corrected.evaluation;
     let monodromy = shooting.monodromy(evaluation).map_err(|e| e.to_string())?;
-    let floquet =
-        floquet::analyse(&monodromy, settings.stability_tolerance).map_err(|e| e.to_string())?;
+    // The trivial pair spans the flow direction g(z0) and the direction along the family:
+    // deflate it rather than guess it from the spectrum (SPEC §7: degenerate partners also
+    // sit near +1).
+    let flow_direction = shooting.modal_coordinates(&shooting.field(&evaluation.z0));
+    let family_direction = shooting.modal_coordinates(&shooting.initial_state(tangent));
+    let floquet = floquet::analyse_deflated(
+        &monodromy,
+        [&flow_direction, &family_direction],
+        settings.stability_tolerance,
+    )
+    .map_err(|e| e.to_string())?;
     let energy = shooting.energy(&evaluation.z0);
     if !energy.is_finite() {
         return Err(format!("non-finite energy {energy}"));

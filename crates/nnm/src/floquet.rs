@@ -17,39 +17,107 @@ pub const DEFAULT_STABILITY_TOLERANCE: f64 = 1e-4;
 /// Multipliers of one periodic motion.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Floquet {
-    /// All multipliers `(re, im)`, sorted by decreasing modulus.
+    /// All multipliers `(re, im)`: the non-trivial ones by decreasing modulus, then the two
+    /// trivial ones.
     pub multipliers: Vec<Complex>,
-    /// Indices (into `multipliers`) of the two trivial ones, those closest to `+1`.
+    /// Indices (into `multipliers`) of the two trivial ones (at `+1`).
     pub trivial: [usize; 2],
     /// Largest modulus among the non-trivial multipliers (1 when there are none).
     pub max_modulus: f64,
     /// `max_modulus ≤ 1 + tolerance`.
     pub stable: bool,
+    /// Accuracy estimate: multipliers of a conservative system come in pairs `(μ, 1/μ)`, so
+    /// the sorted moduli satisfy `ρ_k ρ_{N-1-k} = 1`; this is the largest deviation.
+    pub reciprocity_defect: f64,
 }
 
-/// Multipliers and stability from a monodromy matrix.
+/// Multipliers and stability from a monodromy matrix, the trivial pair identified as the two
+/// multipliers closest to `+1`. Prefer [`analyse_deflated`] when the flow direction and the
+/// direction along the family are known: near-`+1` multipliers of a degenerate partner make
+/// the "closest to +1" rule pick the wrong pair.
 pub fn analyse(monodromy: &Mat<f64>, tolerance: f64) -> Result<Floquet, LinalgError> {
-    let mut multipliers = linalg::eigenvalues(monodromy.as_ref())?;
-    let modulus = |z: &Complex| z.0.hypot(z.1);
-    multipliers.sort_by(|a, b| modulus(b).total_cmp(&modulus(a)));
-    let distance_to_one = |k: usize| {
-        let (re, im) = multipliers[k];
-        (re - 1.0).hypot(im)
+    let all = linalg::eigenvalues(monodromy.as_ref())?;
+    let distance_to_one = |z: &Complex| (z.0 - 1.0).hypot(z.1);
+    let mut order: Vec<usize> = (0..all.len()).collect();
+    order.sort_by(|&a, &b| distance_to_one(&all[a]).total_cmp(&distance_to_one(&all[b])));
+    let trivial: Vec<Complex> = order.iter().take(2).map(|&k| all[k]).collect();
+    let rest: Vec<Complex> = order.iter().skip(2).map(|&k| all[k]).collect();
+    Ok(assemble(rest, trivial, tolerance))
+}
+
+/// Multipliers with the trivial pair removed by deflation. `directions` are two vectors that
+/// span the invariant subspace of the trivial pair — the flow direction `g(z0)` (`Φ g = g`)
+/// and the direction along the family (`Φ w = w + c g`), in the monodromy's coordinates. With
+/// `Q = [Q₁ Q₂]` orthonormal and `Q₁` spanning them, `QᵀΦQ` is block upper triangular; the
+/// eigenvalues of its lower-right block are exactly the non-trivial multipliers.
+pub fn analyse_deflated(
+    monodromy: &Mat<f64>,
+    directions: [&[f64]; 2],
+    tolerance: f64,
+) -> Result<Floquet, LinalgError> {
+    let n = monodromy.nrows();
+    // Orthonormal basis: Gram–Schmidt (twice, for round-off) of the two directions, then of
+    // the unit vectors, keeping the n best-conditioned.
+    let mut basis: Vec<Vec<f64>> = Vec::with_capacity(n);
+    let add = |v: &[f64], basis: &mut Vec<Vec<f64>>| {
+        let mut w = v.to_vec();
+        for _ in 0..2 {
+            for b in basis.iter() {
+                let c = linalg::dot(b, &w);
+                w.iter_mut().zip(b).for_each(|(x, y)| *x -= c * y);
+            }
+        }
+        let norm = linalg::norm(&w);
+        if norm > 1e-8 * linalg::norm(v).max(f64::MIN_POSITIVE) {
+            w.iter_mut().for_each(|x| *x /= norm);
+            basis.push(w);
+            true
+        } else {
+            false
+        }
     };
-    let mut order: Vec<usize> = (0..multipliers.len()).collect();
-    order.sort_by(|&a, &b| distance_to_one(a).total_cmp(&distance_to_one(b)));
-    let trivial = [order[0], order.get(1).copied().unwrap_or(order[0])];
-    let max_modulus = (0..multipliers.len())
-        .filter(|k| !trivial.contains(k))
-        .map(|k| modulus(&multipliers[k]))
-        .reduce(f64::max)
-        .unwrap_or(1.0);
-    Ok(Floquet {
+    let independent = directions.iter().filter(|d| add(d, &mut basis)).count();
+    if independent < 2 {
+        return analyse(monodromy, tolerance);
+    }
+    for k in 0..n {
+        if basis.len() == n {
+            break;
+        }
+        let mut e = vec![0.0; n];
+        e[k] = 1.0;
+        add(&e, &mut basis);
+    }
+    let q = Mat::from_fn(n, n, |i, j| basis[j][i]);
+    let projected = linalg::product(
+        q.transpose(),
+        linalg::product(monodromy.as_ref(), q.as_ref()).as_ref(),
+    );
+    let block =
+        |lo: usize, size: usize| Mat::from_fn(size, size, |i, j| projected[(lo + i, lo + j)]);
+    let rest = linalg::eigenvalues(block(2, n - 2).as_ref())?;
+    let trivial = linalg::eigenvalues(block(0, 2).as_ref())?;
+    Ok(assemble(rest, trivial, tolerance))
+}
+
+fn assemble(mut rest: Vec<Complex>, trivial: Vec<Complex>, tolerance: f64) -> Floquet {
+    let modulus = |z: &Complex| z.0.hypot(z.1);
+    rest.sort_by(|a, b| modulus(b).total_cmp(&modulus(a)));
+    let max_modulus = rest.first().map_or(1.0, modulus);
+    let count = rest.len();
+    let reciprocity_defect = (0..count / 2)
+        .map(|k| (modulus(&rest[k]) * modulus(&rest[count - 1 - k]) - 1.0).abs())
+        .fold(0.0, f64::max);
+    let mut multipliers = rest;
+    multipliers.extend(trivial);
+    let trivial = [count, (count + 1).min(multipliers.len().saturating_sub(1))];
+    Floquet {
         stable: max_modulus <= 1.0 + tolerance,
         multipliers,
         trivial,
         max_modulus,
-    })
+        reciprocity_defect,
+    }
 }
 
 #[cfg(test)]
@@ -83,5 +151,36 @@ mod tests {
         m[(5, 5)] = c;
         let f = analyse(&m, DEFAULT_STABILITY_TOLERANCE).unwrap();
         assert!(f.stable && (f.max_modulus - 1.0).abs() < 1e-12);
+    }
+
+    /// A degenerate partner pair closer to +1 than the numerically split trivial pair: the
+    /// "closest to +1" rule mistakes it for the trivial pair and reports the wrong multiplier;
+    /// deflation along the known directions does not.
+    #[test]
+    fn deflation_keeps_a_partner_pair_near_one() {
+        let mut m = Mat::<f64>::zeros(4, 4);
+        // Trivial Jordan block, perturbed as integration error does: eigenvalues 1 ± 1e-4.
+        m[(0, 0)] = 1.0;
+        m[(0, 1)] = 1.0;
+        m[(1, 0)] = 1e-8;
+        m[(1, 1)] = 1.0;
+        // Partner pair (1 + 1e-5, 1/(1 + 1e-5)): slightly unstable.
+        m[(2, 2)] = 1.0 + 1e-5;
+        m[(3, 3)] = 1.0 / (1.0 + 1e-5);
+        let naive = analyse(&m, 1e-6).unwrap();
+        // Fooled: it reports the split trivial pair (1 + 1e-4) as the largest multiplier.
+        assert!(
+            (naive.max_modulus - (1.0 + 1e-4)).abs() < 1e-6,
+            "{}",
+            naive.max_modulus
+        );
+        let (e0, e1) = ([1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]);
+        let f = analyse_deflated(&m, [&e0, &e1], 1e-6).unwrap();
+        assert!(!f.stable);
+        assert!((f.max_modulus - (1.0 + 1e-5)).abs() < 1e-12);
+        assert!(f.reciprocity_defect < 1e-12);
+        for k in f.trivial {
+            assert!((f.multipliers[k].0 - 1.0).abs() < 2e-4);
+        }
     }
 }

@@ -474,6 +474,27 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         Ok(linalg::norm(&mismatch) / linalg::norm(&scale).max(f64::MIN_POSITIVE))
     }
 
+    /// Coordinates of a state in the modal basis of [`Shooting::monodromy`]:
+    /// `((MB)ᵀ x, (MB)ᵀ v)`.
+    pub fn modal_coordinates(&self, z: &[f64]) -> Vec<f64> {
+        let (n, r) = (self.n, self.r);
+        let project = |x: &[f64]| -> Vec<f64> {
+            (0..r)
+                .map(|c| linalg::dot(&self.mass_basis[c * n..(c + 1) * n], x))
+                .collect()
+        };
+        let mut q = project(&z[..n]);
+        q.extend(project(&z[n..]));
+        q
+    }
+
+    /// The vector field `g(z)`.
+    pub fn field(&self, z: &[f64]) -> Vec<f64> {
+        let mut g = vec![0.0; z.len()];
+        field(self.system, z, &mut g);
+        g
+    }
+
     /// Whether the problem is shot over half a period.
     pub fn half_period(&self) -> bool {
         self.half_period
