@@ -27,6 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let clock = Instant::now();
     let mut folded = false;
     let mut previous_energy = 0.0;
+    let mut previous_a1 = f64::INFINITY;
     println!(
         "{:>4} {:>12} {:>12} {:>10} {:>10} {:>9}",
         "pt", "energy", "frequency", "A1", "A3", "max|mu|"
@@ -40,7 +41,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         folded |= p.energy < previous_energy;
         previous_energy = p.energy;
-        if folded && h[0] < 1e-3 * h[2] {
+        // Past the fold, the fundamental falls to zero at the junction with (1,12) and grows
+        // again beyond it: stop once it has passed its minimum.
+        let passed_junction = folded && previous_a1 < 0.05 * h[2] && h[0] > previous_a1;
+        previous_a1 = h[0];
+        if passed_junction {
             ControlFlow::Break(())
         } else {
             ControlFlow::Continue(())
@@ -52,6 +57,5 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         branch.stop,
         clock.elapsed()
     );
-    let _ = structure.dofs();
     Ok(())
 }
