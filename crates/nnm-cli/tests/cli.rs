@@ -219,3 +219,46 @@ fn run_writes_csv_and_json_per_branch() {
     assert!((f - 1.0).abs() < 1e-3);
     assert!(out.join("fep.png").exists() && out.join("fep.svg").exists());
 }
+
+/// SPEC §6: an interrupted run loses nothing — every converged point is already in the CSV,
+/// and the JSON is a valid document (status "running") holding the same points.
+#[test]
+fn interrupted_run_keeps_every_point() {
+    let dir = scratch("interrupt");
+    let job = write(
+        &dir,
+        "job.toml",
+        "[model]\nfamily = \"bladed-disk\"\n[[branch]]\nname = \"long\"\nmode = \"0,6\"\nmax_points = 1000\nmax_step = 0.02\n",
+    );
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_nnm"))
+        .args(["run", &job, "--out", out.to_str().unwrap(), "--quiet"])
+        .stderr(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let csv_path = out.join("long.csv");
+    let rows =
+        |p: &Path| std::fs::read_to_string(p).map_or(0, |s| s.lines().count().saturating_sub(1));
+    let started = std::time::Instant::now();
+    while rows(&csv_path) < 5 && started.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let csv_rows = rows(&csv_path);
+    assert!(
+        csv_rows >= 5,
+        "only {csv_rows} rows written before the kill"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("long.json")).unwrap())
+            .expect("the JSON is valid even when interrupted");
+    assert_eq!(json["status"], "running");
+    let points = json["points"].as_array().unwrap().len();
+    // The kill can fall between the two files' writes of one point.
+    assert!(
+        points.abs_diff(csv_rows) <= 1,
+        "{points} JSON points vs {csv_rows} CSV rows"
+    );
+}
