@@ -98,7 +98,20 @@ struct ExampleArgs {
     quick: bool,
 }
 
+/// Output piped into a program that stops reading (`nnm modes m.toml | head`) should end the
+/// process quietly, as for other command-line tools, not as a failed write. Rust ignores
+/// SIGPIPE by default; restore the default action.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any other thread exists; setting a signal's
+    // disposition to SIG_DFL has no other precondition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() -> ExitCode {
+    restore_default_sigpipe();
     // A bug must still end in one line on stderr, not a backtrace.
     std::panic::set_hook(Box::new(|info| {
         let message = info
