@@ -1123,9 +1123,10 @@ fn cost_comparison(sensitivity: &Tongue, fd: &Tongue, report: &mut Report) {
          column then costs about as much arithmetic as one column of the variational \
          equations (a right-hand-side evaluation vs a tangent-times-vector product per stage), \
          and the difference left is the per-integration overhead and the sensitivity run's \
-         reuse of the motion's stages. The paper's finite differences re-integrated every \
-         perturbed motion with its own adaptive steps in MATLAB, which is what made them 15× \
-         slower. The sensitivity Jacobian remains the accurate one (no increment to choose; \
+         reuse of the motion's stages. The paper does not detail its finite differences; \
+         re-integrating each perturbed motion with its own error control (and interpreted \
+         MATLAB overheads per integration) would explain a much larger gap. The sensitivity \
+         Jacobian remains the accurate one (no increment to choose; \
          monodromy entries agree with differences to ~1e-7, the differences' own accuracy).",
         sensitivity.points.len(),
         sensitivity.stats.newton_iterations,
