@@ -582,6 +582,28 @@ fn localization(
     Ok(())
 }
 
+/// Computes one branch of the study quietly (files in `out`), `extra` seeing every point.
+fn single_branch(
+    structure: &Structure,
+    modes: &[LinearMode],
+    job: &BranchJob,
+    out: &Path,
+    extra: impl FnMut(&BranchPoint) -> ControlFlow<()>,
+) -> Result<Branch> {
+    let request = resolve(std::slice::from_ref(job), modes)?
+        .pop()
+        .expect("one request per job");
+    compute_branch(
+        structure,
+        modes,
+        &request,
+        out,
+        true,
+        &Mutex::new(()),
+        extra,
+    )
+}
+
 /// A tongue point with the harmonic content of its motion.
 struct TonguePoint {
     point: BranchPoint,
@@ -680,7 +702,7 @@ fn tongue(
 ) -> Result<Tongue> {
     create_dir(out)?;
     let n = structure.dofs();
-    let (index, start_mode) = find_mode(modes, "0,6", None).expect("checked");
+    let (_, start_mode) = find_mode(modes, "0,6", None).expect("checked");
     let job = BranchJob {
         name: "tongue-0-6".into(),
         mode: "0,6".into(),
@@ -696,10 +718,6 @@ fn tongue(
             ..settings.clone()
         },
     };
-    let request = resolve(std::slice::from_ref(&job), modes)?
-        .pop()
-        .expect("one request");
-    debug_assert_eq!(request.index, index);
     let mut points: Vec<TonguePoint> = Vec::new();
     let mut folds = Vec::new();
     let mut junction = None;
@@ -712,59 +730,51 @@ fn tongue(
     let started = Instant::now();
     // Time spent on the harmonic analysis of each point, left out of the continuation's cost.
     let mut analysis_seconds = 0.0;
-    let branch = compute_branch(
-        structure,
-        modes,
-        &request,
-        out,
-        true,
-        &Mutex::new(()),
-        |p| {
-            let analysis_started = Instant::now();
-            let states = match sample_motion(structure, &p.z0, p.period, SAMPLES, 1e-10) {
-                Ok(s) => s,
-                Err(e) => {
-                    failure = Some(e);
-                    return ControlFlow::Break(());
-                }
-            };
-            let (a1, p1, a3) = signed_harmonics(&states, n, &start_mode.shape);
-            let next = TonguePoint {
-                point: p.clone(),
-                a1,
-                p1,
-                a3,
-            };
-            if let [.., before, last] = points.as_slice() {
-                let rising = |a: &TonguePoint, b: &TonguePoint| b.point.energy > a.point.energy;
-                if rising(before, last) != rising(last, &next) {
-                    folds.push(points.len() - 1);
-                }
+    let branch = single_branch(structure, modes, &job, out, |p| {
+        let analysis_started = Instant::now();
+        let states = match sample_motion(structure, &p.z0, p.period, SAMPLES, 1e-10) {
+            Ok(s) => s,
+            Err(e) => {
+                failure = Some(e);
+                return ControlFlow::Break(());
             }
-            let crossed = points
-                .last()
-                .is_some_and(|last| !folds.is_empty() && last.p1 * p1 < 0.0);
-            if crossed {
-                junction = Some(junction_between(&points, &next));
+        };
+        let (a1, p1, a3) = signed_harmonics(&states, n, &start_mode.shape);
+        let next = TonguePoint {
+            point: p.clone(),
+            a1,
+            p1,
+            a3,
+        };
+        if let [.., before, last] = points.as_slice() {
+            let rising = |a: &TonguePoint, b: &TonguePoint| b.point.energy > a.point.energy;
+            if rising(before, last) != rising(last, &next) {
+                folds.push(points.len() - 1);
             }
-            points.push(next);
-            if points.len() % 20 == 0 {
-                eprintln!(
-                    "study: tongue ({label}) point {}: E = {:.4e}, f = {:.6}, A3/A1 = {:.3}",
-                    points.len(),
-                    p.energy,
-                    p.frequency,
-                    a3 / a1.abs()
-                );
-            }
-            analysis_seconds += analysis_started.elapsed().as_secs_f64();
-            if crossed {
-                ControlFlow::Break(())
-            } else {
-                ControlFlow::Continue(())
-            }
-        },
-    )?;
+        }
+        let crossed = points
+            .last()
+            .is_some_and(|last| !folds.is_empty() && last.p1 * p1 < 0.0);
+        if crossed {
+            junction = Some(junction_between(&points, &next));
+        }
+        points.push(next);
+        if points.len() % 20 == 0 {
+            eprintln!(
+                "study: tongue ({label}) point {}: E = {:.4e}, f = {:.6}, A3/A1 = {:.3}",
+                points.len(),
+                p.energy,
+                p.frequency,
+                a3 / a1.abs()
+            );
+        }
+        analysis_seconds += analysis_started.elapsed().as_secs_f64();
+        if crossed {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })?;
     if let Some(e) = failure {
         return Err(e.into());
     }
@@ -810,18 +820,7 @@ fn tongue_outputs(
             ..settings.clone()
         },
     };
-    let request = resolve(std::slice::from_ref(&job), modes)?
-        .pop()
-        .expect("one request");
-    let b112 = compute_branch(
-        structure,
-        modes,
-        &request,
-        out,
-        true,
-        &Mutex::new(()),
-        |_| ControlFlow::Continue(()),
-    )?;
+    let b112 = single_branch(structure, modes, &job, out, |_| ControlFlow::Continue(()))?;
     let f112 = frequency_at(&b112, e_junction)
         .ok_or_else(|| anyhow!("the (1,12) backbone does not reach E = {e_junction}"))?;
     let mismatch = 3.0 * f_junction - f112;
@@ -1080,7 +1079,7 @@ fn tongue_outputs(
     report.line(&format!(
         "The linear frequencies are in ratio {:.2}, far from 3: the resonance exists because \
          (1,12) hardens much faster than (0,6).",
-        modes[request.index].frequency
+        modes[find_mode(modes, "1,12", None).expect("checked").0].frequency
             / modes[find_mode(modes, "0,6", None).expect("checked").0].frequency
     ));
     report.figure(
