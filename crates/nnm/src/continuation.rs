@@ -25,7 +25,7 @@ use crate::modes::LinearMode;
 use crate::shooting::{
     Evaluation, JacobianMethod, PhaseCondition, Shooting, ShootingSettings, ShootingStats,
 };
-use crate::symmetry::{Parity, invariant_class};
+use crate::symmetry::{Parity, invariant_class, is_odd, sample_states};
 
 /// Continuation settings. `Default` gives the values documented on each field.
 #[derive(Debug, Clone)]
@@ -145,11 +145,12 @@ impl Start {
         let n = structure.dofs();
         // Rigid-body modes are left out of the unknowns only when the nonlinear forces leave
         // them alone; otherwise they are kept like any other mode.
-        let decoupled = rigid_modes_decouple(structure, modes);
+        let amplitude_scale = weakly_nonlinear_amplitude(structure, &mode.shape, 1.0);
+        let decoupled = rigid_modes_decouple(structure, modes, amplitude_scale);
         let kept = |k: usize| !modes[k].rigid || !decoupled;
         // Kept modes, those of the starting mode's invariant class first.
         let class = if decoupled {
-            invariant_class(structure, modes, index)
+            invariant_class(structure, modes, index, amplitude_scale)
         } else {
             None
         };
@@ -188,7 +189,7 @@ impl Start {
             mass_basis,
             unknown_columns,
             symmetry: class.map(|(parity, _)| parity),
-            amplitude_scale: weakly_nonlinear_amplitude(structure, &mode.shape, 1.0),
+            amplitude_scale,
             omega: mode.frequency,
             z0,
             period: 2.0 * std::f64::consts::PI / mode.frequency,
@@ -233,66 +234,23 @@ impl Start {
     }
 }
 
-/// Whether the vector field is odd, `a(-x) = -a(x)` (cubic and quintic springs: yes;
-/// quadratic: no), checked at sample states of size `amplitude` (where the nonlinearity is
-/// significant, so the verdict does not depend on the length unit). The even part
-/// `a(x) + a(-x)` must vanish relative to the nonlinear part, estimated by `a(x) - 2 a(x/2)`
-/// (the linear part cancels in both).
-fn is_odd<S: SecondOrderSystem + ?Sized>(system: &S, amplitude: f64) -> bool {
-    let n = system.dofs();
-    (1..=3).all(|k| {
-        let pattern: Vec<f64> = (0..n)
-            .map(|i| ((i * 3 + k * 7) as f64 * 0.569_840_29).sin())
-            .collect();
-        let peak = pattern
-            .iter()
-            .fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
-        let x: Vec<f64> = pattern
-            .iter()
-            .map(|v| v / peak * amplitude * k as f64)
-            .collect();
-        let minus: Vec<f64> = x.iter().map(|v| -v).collect();
-        let half: Vec<f64> = x.iter().map(|v| 0.5 * v).collect();
-        let (mut a, mut b, mut c) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        system.acceleration(&x, &mut a);
-        system.acceleration(&minus, &mut b);
-        system.acceleration(&half, &mut c);
-        let even = a
-            .iter()
-            .zip(&b)
-            .map(|(p, q)| (p + q).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let nonlinear = a
-            .iter()
-            .zip(&c)
-            .map(|(p, q)| (p - 2.0 * q).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let total = linalg::norm(&a);
-        even <= 1e-10 * nonlinear + 1e-14 * total
-    })
-}
-
 /// Whether every rigid-body mode `u` decouples from the nonlinear forces:
 /// `f_nl(x + c u) = f_nl(x)` and `uᵀ f_nl(x) = 0` at sample states (true of forces that depend
 /// on differences of displacements, as in a free-floating structure). Only then is a rigid
 /// shift periodic for every period and a rigid velocity a pure drift, so that the rigid modes
 /// can be removed from the shooting unknowns and from the Floquet analysis.
-fn rigid_modes_decouple(structure: &Structure, modes: &[LinearMode]) -> bool {
+fn rigid_modes_decouple(structure: &Structure, modes: &[LinearMode], amplitude: f64) -> bool {
     let n = structure.dofs();
+    let samples = sample_states(n, amplitude);
     modes.iter().filter(|m| m.rigid).all(|rigid| {
-        (1..=3).all(|k| {
-            let x: Vec<f64> = (0..n)
-                .map(|i| ((i * 5 + k * 11) as f64 * 0.754_877_666).sin() * k as f64)
-                .collect();
+        samples.iter().all(|x| {
             let shifted: Vec<f64> = x
                 .iter()
                 .zip(&rigid.shape)
-                .map(|(a, u)| a + 0.7 * u)
+                .map(|(a, u)| a + 0.7 * amplitude * u)
                 .collect();
             let (mut f, mut g) = (vec![0.0; n], vec![0.0; n]);
-            structure.nonlinear_force(&x, &mut f);
+            structure.nonlinear_force(x, &mut f);
             structure.nonlinear_force(&shifted, &mut g);
             let scale = f.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
             let invariant = f

@@ -105,15 +105,6 @@ pub fn least_squares(a: MatRef<'_, f64>, b: &[f64]) -> Vec<f64> {
     (0..a.ncols()).map(|i| x[(i, 0)]).collect()
 }
 
-/// Right singular vectors and singular values (descending) of `a`.
-pub fn singular_values_and_right_vectors(
-    a: MatRef<'_, f64>,
-) -> Result<(Vec<f64>, Mat<f64>), LinalgError> {
-    let svd = a.svd().map_err(|_| LinalgError::NoConvergence)?;
-    let values = svd.S().column_vector().iter().copied().collect();
-    Ok((values, svd.V().to_owned()))
-}
-
 /// Euclidean norm.
 pub fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()

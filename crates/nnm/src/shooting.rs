@@ -96,8 +96,6 @@ pub struct Shooting<'a, S: SecondOrderSystem + ?Sized> {
     /// State directions of the unknowns, `2n × m`.
     state_basis: Vec<f64>,
     integrator: Integrator,
-    /// Ratio of the integrator's relative tolerance to the shooting tolerance.
-    integration_factor: f64,
     first_step: Option<f64>,
     pub stats: ShootingStats,
 }
@@ -173,7 +171,6 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
             period_ref: 2.0 * std::f64::consts::PI / omega_ref,
             state_basis,
             integrator: Integrator::new(settings.tableau, tolerances),
-            integration_factor: settings.integration_factor,
             first_step: None,
             stats: ShootingStats::default(),
         }
@@ -498,11 +495,6 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
     /// Whether the problem is shot over half a period.
     pub fn half_period(&self) -> bool {
         self.half_period
-    }
-
-    /// Updates the shooting tolerance (and the integrator's, in proportion).
-    pub fn set_tolerance(&mut self, tolerance: f64) {
-        self.integrator.tolerances.relative = self.integration_factor * tolerance;
     }
 }
 

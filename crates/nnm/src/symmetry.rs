@@ -14,6 +14,7 @@
 //! states), so a cyclic model whose sectors are not themselves mirror-symmetric is simply not
 //! restricted.
 
+use crate::linalg;
 use crate::model::{SecondOrderSystem, Structure};
 use crate::modes::LinearMode;
 
@@ -54,19 +55,50 @@ fn close(a: &[f64], b: &[f64], scale: f64) -> bool {
         .all(|(x, y)| (x - y).abs() <= TOLERANCE * scale.max(f64::MIN_POSITIVE))
 }
 
-/// Deterministic sample states for the force checks (no random-number dependency needed).
-fn sample_states(n: usize) -> Vec<Vec<f64>> {
+/// Deterministic sample states for checks of the forces at sample points (no random-number
+/// dependency needed): three irregular patterns with peak displacement `amplitude`, 2 and 3
+/// times `amplitude`. Callers pass an amplitude where the nonlinearity matters, so that the
+/// verdicts do not depend on the model's length unit.
+pub(crate) fn sample_states(n: usize, amplitude: f64) -> Vec<Vec<f64>> {
     (1..=3)
         .map(|k| {
-            (0..n)
-                .map(|i| ((i * 7 + k * 13) as f64 * 0.618_033_988_75).sin() * k as f64)
+            let pattern: Vec<f64> = (0..n)
+                .map(|i| ((i * 7 + k * 13) as f64 * 0.618_033_988_75).sin())
+                .collect();
+            let peak = pattern
+                .iter()
+                .fold(f64::MIN_POSITIVE, |m, v| m.max(v.abs()));
+            pattern
+                .iter()
+                .map(|v| v / peak * amplitude * k as f64)
                 .collect()
         })
         .collect()
 }
 
+/// Whether the vector field is odd, `a(-x) = -a(x)` (cubic and quintic springs: yes;
+/// quadratic: no), checked at sample states of size `amplitude` (where the nonlinearity is
+/// significant, so the verdict does not depend on the length unit). The even part
+/// `a(x) + a(-x)` must vanish relative to the nonlinear part, estimated by `a(x) - 2 a(x/2)`
+/// (the linear part cancels in both).
+pub(crate) fn is_odd<S: SecondOrderSystem + ?Sized>(system: &S, amplitude: f64) -> bool {
+    let n = system.dofs();
+    sample_states(n, amplitude).into_iter().all(|x| {
+        let minus: Vec<f64> = x.iter().map(|v| -v).collect();
+        let half: Vec<f64> = x.iter().map(|v| 0.5 * v).collect();
+        let (mut a, mut b, mut c) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        system.acceleration(&x, &mut a);
+        system.acceleration(&minus, &mut b);
+        system.acceleration(&half, &mut c);
+        let norm = |v: Vec<f64>| linalg::norm(&v);
+        let even = norm(a.iter().zip(&b).map(|(p, q)| p + q).collect());
+        let nonlinear = norm(a.iter().zip(&c).map(|(p, q)| p - 2.0 * q).collect());
+        even <= 1e-10 * nonlinear + 1e-14 * linalg::norm(&a)
+    })
+}
+
 /// Checks that the mirror reflection is a symmetry of the whole system; returns it.
-fn verified_mirror(structure: &Structure) -> Option<Vec<usize>> {
+fn verified_mirror(structure: &Structure, amplitude: f64) -> Option<Vec<usize>> {
     let p = mirror_permutation(structure)?;
     let n = p.len();
     for m in [structure.mass(), structure.stiffness()] {
@@ -81,29 +113,16 @@ fn verified_mirror(structure: &Structure) -> Option<Vec<usize>> {
             }
         }
     }
-    for x in sample_states(n) {
+    for x in sample_states(n, amplitude) {
         let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
         structure.acceleration(&reflect(&p, &x), &mut a);
         structure.acceleration(&x, &mut b);
-        let scale = b.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+        let scale = b.iter().fold(0.0f64, |s, v| s.max(v.abs()));
         if !close(&a, &reflect(&p, &b), scale) {
             return None;
         }
     }
     Some(p)
-}
-
-fn nonlinearity_is_odd(structure: &Structure) -> bool {
-    let n = structure.dofs();
-    sample_states(n).into_iter().all(|x| {
-        let minus: Vec<f64> = x.iter().map(|v| -v).collect();
-        let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-        structure.nonlinear_force(&minus, &mut a);
-        structure.nonlinear_force(&x, &mut b);
-        let neg: Vec<f64> = b.iter().map(|v| -v).collect();
-        let scale = b.iter().fold(1.0f64, |s, v| s.max(v.abs()));
-        close(&a, &neg, scale)
-    })
 }
 
 /// Parity of a shape under `R`: `Some(Even)` if `R φ = φ`, `Some(Odd)` if `R φ = -φ`.
@@ -123,13 +142,15 @@ fn parity(p: &[usize], shape: &[f64]) -> Option<Parity> {
 /// The invariant subspace a branch from `modes[start]` lives in: its parity and the indices of
 /// the elastic modes of that parity. `None` when the structure has no verified mirror
 /// symmetry, when a mode is not of pure parity, or for an odd start with a nonlinearity that
-/// is not odd.
+/// is not odd. `amplitude`: a displacement size where the nonlinearity matters (the force
+/// checks are made there).
 pub fn invariant_class(
     structure: &Structure,
     modes: &[LinearMode],
     start: usize,
+    amplitude: f64,
 ) -> Option<(Parity, Vec<usize>)> {
-    let p = verified_mirror(structure)?;
+    let p = verified_mirror(structure, amplitude)?;
     let parities: Vec<Option<Parity>> = modes.iter().map(|m| parity(&p, &m.shape)).collect();
     let wanted = parities.get(start).copied().flatten()?;
     if parities
@@ -139,7 +160,7 @@ pub fn invariant_class(
     {
         return None;
     }
-    if wanted == Parity::Odd && !nonlinearity_is_odd(structure) {
+    if wanted == Parity::Odd && !is_odd(structure, amplitude) {
         return None;
     }
     let members = (0..modes.len())
@@ -160,8 +181,8 @@ mod tests {
         let modes = linear_modes(&s).unwrap();
         let (cos, _) = find_mode(&modes, "1,5", Some(StandingWave::Cos)).unwrap();
         let (sin, _) = find_mode(&modes, "1,5", Some(StandingWave::Sin)).unwrap();
-        let (pc, even) = invariant_class(&s, &modes, cos).unwrap();
-        let (ps, odd) = invariant_class(&s, &modes, sin).unwrap();
+        let (pc, even) = invariant_class(&s, &modes, cos, 1.0).unwrap();
+        let (ps, odd) = invariant_class(&s, &modes, sin, 1.0).unwrap();
         assert_eq!((pc, ps), (Parity::Even, Parity::Odd));
         // 16 cos-type shapes per sector dof minus the rigid mode; 14 sin-type per sector dof.
         assert_eq!((even.len(), odd.len()), (31, 28));
@@ -172,7 +193,7 @@ mod tests {
     fn no_class_without_cyclic_symmetry_or_with_even_power_for_odd_start() {
         let s = two_dof(0.5).unwrap();
         let modes = linear_modes(&s).unwrap();
-        assert!(invariant_class(&s, &modes, 0).is_none());
+        assert!(invariant_class(&s, &modes, 0, 1.0).is_none());
         // A bladed disk with a quadratic blade spring: the even class stays invariant, the
         // odd one does not.
         let base = BladedDisk::default().build().unwrap();
@@ -189,7 +210,7 @@ mod tests {
         let modes = linear_modes(&quadratic).unwrap();
         let (cos, _) = find_mode(&modes, "1,5", Some(StandingWave::Cos)).unwrap();
         let (sin, _) = find_mode(&modes, "1,5", Some(StandingWave::Sin)).unwrap();
-        assert!(invariant_class(&quadratic, &modes, cos).is_some());
-        assert!(invariant_class(&quadratic, &modes, sin).is_none());
+        assert!(invariant_class(&quadratic, &modes, cos, 1.0).is_some());
+        assert!(invariant_class(&quadratic, &modes, sin, 1.0).is_none());
     }
 }

@@ -50,13 +50,4 @@ impl<'a> BlockMut<'a> {
     pub fn col_mut(&mut self, c: usize) -> &mut [f64] {
         &mut self.data[c * self.stride..c * self.stride + self.rows]
     }
-    /// Reborrows as a shorter-lived mutable block.
-    pub fn reborrow(&mut self) -> BlockMut<'_> {
-        BlockMut {
-            data: self.data,
-            rows: self.rows,
-            cols: self.cols,
-            stride: self.stride,
-        }
-    }
 }
