@@ -151,6 +151,7 @@ struct Options {
     integrator: Option<String>,
     symmetry: Option<bool>,
     half_period: Option<bool>,
+    events: Option<bool>,
 }
 
 impl Options {
@@ -174,6 +175,7 @@ impl Options {
             integrator: self.integrator.clone().or(defaults.integrator.clone()),
             symmetry: self.symmetry.or(defaults.symmetry),
             half_period: self.half_period.or(defaults.half_period),
+            events: self.events.or(defaults.events),
         }
     }
 
@@ -205,6 +207,7 @@ impl Options {
             tableau,
             integration_factor: self.integration_factor.unwrap_or(d.integration_factor),
             half_period: self.half_period.unwrap_or(d.half_period),
+            events: self.events.unwrap_or(d.events),
         })
     }
 }

@@ -44,6 +44,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         ControlFlow::Continue(())
     })?;
+    for e in &branch.events {
+        println!(
+            "event {:>15} after point {:3}: E = {:.9e}, w = {:.9} rad/s, mu = ({:.6}, {:.6}) x{}, \
+             bracket {:.1e} in {} trials, converged {}",
+            e.kind.name(),
+            e.after,
+            e.point.energy,
+            e.point.frequency,
+            e.multiplier.0,
+            e.multiplier.1,
+            e.multiplicity,
+            e.arclength_uncertainty,
+            e.location_steps,
+            e.converged
+        );
+    }
     println!("stop: {} after {:.2?}", branch.stop, clock.elapsed());
     println!("{:?}", branch.stats);
     Ok(())

@@ -17,6 +17,7 @@
 
 use std::ops::ControlFlow;
 
+use crate::bifurcation::{self, Event};
 use crate::floquet::{self, DEFAULT_STABILITY_TOLERANCE, Floquet};
 use crate::integrate::{DOP853, IntegrationError, Tableau};
 use crate::linalg::{self, Mat};
@@ -62,6 +63,9 @@ pub struct Settings {
     /// Shoot over half a period when the system is odd (checked at sample states; default
     /// true). Every point's full-period residual is still checked.
     pub half_period: bool,
+    /// Detect folds, branch points, period doublings and Krein collisions between
+    /// consecutive points and locate them ([`crate::bifurcation`]; default true).
+    pub events: bool,
 }
 
 impl Default for Settings {
@@ -83,6 +87,7 @@ impl Default for Settings {
             tableau: &DOP853,
             integration_factor: 1e-3,
             half_period: true,
+            events: true,
         }
     }
 }
@@ -108,6 +113,16 @@ pub struct Start {
     pub z0: Vec<f64>,
     /// Initial guess of the period.
     pub period: f64,
+    /// Whether half-period shooting may be used (when the system is odd and the settings
+    /// allow it); false for a branch that breaks the half-wave symmetry.
+    pub half_period: bool,
+    /// State direction (length 2n) whose projection the first corrector holds fixed, and
+    /// along which the branch sets off; `None`: `z0` itself (the starting mode's amplitude).
+    pub pin: Option<Vec<f64>>,
+    /// Phase condition required by this start, overriding the settings' (a switched branch
+    /// whose motions are never at rest everywhere at once needs
+    /// [`PhaseCondition::FlowOrthogonal`]).
+    pub phase: Option<PhaseCondition>,
 }
 
 /// Why a branch could not be started.
@@ -193,6 +208,9 @@ impl Start {
             omega: mode.frequency,
             z0,
             period: 2.0 * std::f64::consts::PI / mode.frequency,
+            half_period: true,
+            pin: None,
+            phase: None,
         })
     }
 }
@@ -205,15 +223,17 @@ impl Start {
         system: &'a S,
         settings: &Settings,
     ) -> Shooting<'a, S> {
+        let phase = self.phase.unwrap_or(settings.phase);
         let shooting_settings = ShootingSettings {
-            phase: settings.phase,
+            phase,
             jacobian: settings.jacobian,
             tableau: settings.tableau,
             tolerance: settings.tolerance,
             integration_factor: settings.integration_factor,
             amplitude_scale: self.amplitude_scale,
-            half_period: settings.half_period
-                && settings.phase == PhaseCondition::ZeroVelocity
+            half_period: self.half_period
+                && settings.half_period
+                && phase == PhaseCondition::ZeroVelocity
                 && is_odd(system, self.amplitude_scale),
         };
         Shooting::new(
@@ -306,6 +326,8 @@ pub struct BranchPoint {
     pub index: usize,
     /// Total energy `E(z0)`.
     pub energy: f64,
+    /// `dE/ds` along the unit tangent: changes sign at a fold.
+    pub energy_slope: f64,
     /// Period `T` (s).
     pub period: f64,
     /// `2π / T` (rad/s).
@@ -358,6 +380,9 @@ impl std::fmt::Display for StopReason {
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct BranchStats {
     pub points: usize,
+    pub events: usize,
+    /// Corrector solves spent on locating events.
+    pub location_steps: usize,
     pub newton_iterations: usize,
     pub rejected_steps: usize,
     pub shooting: ShootingStats,
@@ -367,6 +392,8 @@ pub struct BranchStats {
 #[derive(Debug, Clone)]
 pub struct Branch {
     pub points: Vec<BranchPoint>,
+    /// Located events, in the order of the branch.
+    pub events: Vec<Event>,
     pub stop: StopReason,
     pub stats: BranchStats,
     /// Linear angular frequency of the starting mode.
@@ -470,19 +497,50 @@ fn amplitude_norm(u: &[f64]) -> f64 {
     linalg::norm(&u[..u.len() - 1])
 }
 
+/// Receives a branch's results as soon as they are found, so that a caller can write them out
+/// before the next one is attempted. Either method may stop the continuation by returning
+/// `ControlFlow::Break`. A closure `FnMut(&BranchPoint) -> ControlFlow<()>` is an observer that
+/// ignores events.
+pub trait Observer {
+    /// A converged point.
+    fn point(&mut self, point: &BranchPoint) -> ControlFlow<()>;
+    /// A located event; it is reported before the point that follows it.
+    fn event(&mut self, _event: &Event) -> ControlFlow<()> {
+        ControlFlow::Continue(())
+    }
+}
+
+impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for F {
+    fn point(&mut self, point: &BranchPoint) -> ControlFlow<()> {
+        self(point)
+    }
+}
+
 /// Follows the branch from `start`, calling `observer` with every converged point as soon as
-/// it is found (so a caller can write it out before the next one is attempted). The observer
-/// may stop the continuation by returning `ControlFlow::Break`.
+/// it is found. Events are located all the same (see [`Settings::events`]) and returned in
+/// the [`Branch`]; [`continue_branch_observed`] also reports them as they are found.
 pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
     system: &S,
     start: &Start,
     settings: &Settings,
-    mut observer: impl FnMut(&BranchPoint) -> ControlFlow<()>,
+    observer: impl FnMut(&BranchPoint) -> ControlFlow<()>,
+) -> Result<Branch, ContinuationError> {
+    continue_branch_observed(system, start, settings, observer)
+}
+
+/// Follows the branch from `start`, handing every converged point and located event to
+/// `observer` as soon as it is found.
+pub fn continue_branch_observed<S: SecondOrderSystem + ?Sized>(
+    system: &S,
+    start: &Start,
+    settings: &Settings,
+    mut observer: impl Observer,
 ) -> Result<Branch, ContinuationError> {
     settings.validate()?;
     let mut shooting = start.shooting(system, settings);
     let mut stats = BranchStats::default();
     let mut points: Vec<BranchPoint> = Vec::new();
+    let mut events: Vec<Event> = Vec::new();
 
     // First point: pin the projection on the starting direction.
     let u0 = shooting.unknowns_from_state(&start.z0, start.period);
@@ -493,8 +551,18 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
             "the starting state is zero".into(),
         ));
     }
-    let mut pin: Vec<f64> = u0.iter().map(|x| x / q_norm).collect();
+    let mut pin = match &start.pin {
+        Some(direction) => shooting.unknowns_from_state(direction, 0.0),
+        None => u0.clone(),
+    };
     pin[m - 1] = 0.0;
+    let pin_norm = linalg::norm(&pin);
+    if pin_norm.is_nan() || pin_norm == 0.0 {
+        return Err(ContinuationError::FirstPoint(
+            "the starting direction has no component in the unknowns".into(),
+        ));
+    }
+    pin.iter_mut().for_each(|x| *x /= pin_norm);
     let first = correct(
         &mut shooting,
         &u0,
@@ -591,6 +659,19 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
                 continue;
             }
         };
+        let previous = points.last().expect("the first point is recorded");
+        if settings.events {
+            for event in locate_events(&mut shooting, previous, &point, settings, &mut stats) {
+                let flow = observer.event(&event);
+                events.push(event);
+                if flow.is_break() {
+                    stop = Some(StopReason::Interrupted);
+                }
+            }
+            if stop.is_some() {
+                break;
+            }
+        }
         step *= step_factor(corrected.iterations, settings.target_iterations);
         u = corrected.unknowns;
         t = t_new;
@@ -598,9 +679,11 @@ pub fn continue_branch<S: SecondOrderSystem + ?Sized>(
         stop = record(point, &mut points, &mut observer, settings, start.omega);
     }
     stats.points = points.len();
+    stats.events = events.len();
     stats.shooting = shooting.stats;
     Ok(Branch {
         points,
+        events,
         stop: stop.unwrap_or(StopReason::MaxPoints),
         stats,
         omega: start.omega,
@@ -705,6 +788,7 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
     if !energy.is_finite() {
         return Err(format!("non-finite energy {energy}"));
     }
+    let energy_slope = energy_slope(shooting, &corrected.unknowns, tangent);
     let full_period_residual = shooting
         .full_period_residual(evaluation)
         .map_err(|e| e.to_string())?;
@@ -716,6 +800,7 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
     Ok(BranchPoint {
         index,
         energy,
+        energy_slope,
         period: evaluation.period,
         frequency: 2.0 * std::f64::consts::PI / evaluation.period,
         z0: evaluation.z0.clone(),
@@ -729,15 +814,184 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
     })
 }
 
+/// `dE/ds` along the unit tangent `t` at unknowns `u`, by the five-point central difference
+/// (exact for the quartic energy of cubic springs; `O(h⁴)` otherwise, with `h = 1e-3 ‖q‖`).
+fn energy_slope<S: SecondOrderSystem + ?Sized>(
+    shooting: &Shooting<'_, S>,
+    u: &[f64],
+    t: &[f64],
+) -> f64 {
+    let z = shooting.initial_state(u);
+    let w = shooting.initial_state(t);
+    let h = 1e-3 * amplitude_norm(u).max(f64::MIN_POSITIVE);
+    let energy_at = |c: f64| {
+        let shifted: Vec<f64> = z.iter().zip(&w).map(|(a, b)| a + c * h * b).collect();
+        shooting.energy(&shifted)
+    };
+    (8.0 * (energy_at(1.0) - energy_at(-1.0)) - (energy_at(2.0) - energy_at(-2.0))) / (12.0 * h)
+}
+
+/// Relative arclength accuracy to which events are located (relative to `‖q‖`): energies
+/// then come out to about twice that.
+const EVENT_ARCLENGTH_TOLERANCE: f64 = 1e-9;
+/// Trials allowed to the secant location (it converges in 5–12 on a simple root).
+const SECANT_TRIALS: usize = 20;
+/// Trials allowed to the bisection fallback (about 30 halvings reach the tolerance).
+const BISECTION_TRIALS: usize = 36;
+
+/// Detects the events between two consecutive points and locates each one: every trial is a
+/// point at arclength `s` from `previous`, corrected on the hyperplane
+/// `t_prev · (u - u_prev - s t_prev) = 0` (the one the continuation step itself used), started
+/// from the chord between the two points.
+fn locate_events<S: SecondOrderSystem + ?Sized>(
+    shooting: &mut Shooting<'_, S>,
+    previous: &BranchPoint,
+    next: &BranchPoint,
+    settings: &Settings,
+    stats: &mut BranchStats,
+) -> Vec<Event> {
+    let (u0, t0, u1) = (&previous.unknowns, &previous.tangent, &next.unknowns);
+    // Arclength of `next` along the previous tangent (the step, up to round-off).
+    let h: f64 = t0
+        .iter()
+        .zip(u1.iter().zip(u0))
+        .map(|(t, (a, b))| t * (a - b))
+        .sum();
+    let tolerance = EVENT_ARCLENGTH_TOLERANCE * amplitude_norm(u0);
+    let mut located = Vec::new();
+    for crossing in bifurcation::detect(previous, next) {
+        let mut newton = 0;
+        let mut trial_point = |s: f64, with_floquet: bool| -> Result<BranchPoint, String> {
+            let guess: Vec<f64> = u0
+                .iter()
+                .zip(u1)
+                .map(|(a, b)| a + (s / h) * (b - a))
+                .collect();
+            let anchor: Vec<f64> = u0.iter().zip(t0).map(|(a, t)| a + s * t).collect();
+            let corrected = correct(
+                shooting,
+                &guess,
+                t0,
+                &anchor,
+                &previous.z0,
+                settings,
+                &mut newton,
+            )?;
+            let t = tangent(&corrected.evaluation, t0);
+            if with_floquet {
+                make_point(shooting, &corrected, &t, previous.index, s, settings)
+            } else {
+                Ok(light_point(shooting, &corrected, &t, previous.index, s))
+            }
+        };
+        let value = |p: &BranchPoint| bifurcation::test_function(crossing, p).map(|(f, _)| f);
+        let ends = (value(previous), value(next));
+        let result = match ends {
+            (Some(f0), Some(f1)) if f0 * f1 < 0.0 => {
+                bifurcation::illinois(h, f0, f1, tolerance, SECANT_TRIALS, |s| {
+                    let p = trial_point(s, crossing.needs_floquet())?;
+                    let f = value(&p).ok_or("the critical pair vanished")?;
+                    if std::env::var("NNM_DEBUG_EVENTS").is_ok() {
+                        eprintln!("  trial s={s:.15e} f={f:.6e} {crossing:?}");
+                    }
+                    Ok((f, p))
+                })
+            }
+            // The counts changed but the test function does not bracket a zero (e.g. two pairs
+            // crossing in one interval): bisect on which side's signature a trial shares.
+            _ => {
+                let side = |p: &BranchPoint| {
+                    if bifurcation::detect(previous, p).contains(&crossing) {
+                        -1.0
+                    } else {
+                        1.0
+                    }
+                };
+                bifurcation::illinois(h, 1.0, -1.0, tolerance, BISECTION_TRIALS, |s| {
+                    let p = trial_point(s, true)?;
+                    Ok((side(&p), p))
+                })
+                .map(|mut found| {
+                    found.converged = found.uncertainty <= tolerance;
+                    found
+                })
+            }
+        };
+        let point = match result {
+            Ok(found) => {
+                let summary = (
+                    found.arclength,
+                    found.uncertainty,
+                    found.trials,
+                    found.converged,
+                );
+                if crossing.needs_floquet() {
+                    Ok((found.payload, summary))
+                } else {
+                    // A fold's trials skip the Floquet analysis: do it once at the result.
+                    trial_point(summary.0, true).map(|p| (p, summary))
+                }
+            }
+            Err(why) => Err(why),
+        };
+        stats.newton_iterations += newton;
+        let Ok((point, (arclength, uncertainty, trials, converged))) = point else {
+            continue;
+        };
+        stats.location_steps += trials;
+        let multiplier =
+            bifurcation::test_function(crossing, &point).map_or((1.0, 0.0), |(_, m)| m);
+        located.push(Event {
+            kind: crossing.kind(),
+            after: previous.index,
+            arclength,
+            arclength_uncertainty: uncertainty,
+            multiplicity: bifurcation::multiplicity(crossing, &point),
+            multiplier,
+            location_steps: trials,
+            converged,
+            point,
+        });
+    }
+    located.sort_by(|a, b| a.arclength.total_cmp(&b.arclength));
+    located
+}
+
+/// A point without the Floquet analysis (for trials that only need `dE/ds`).
+fn light_point<S: SecondOrderSystem + ?Sized>(
+    shooting: &Shooting<'_, S>,
+    corrected: &Corrected,
+    tangent: &[f64],
+    index: usize,
+    step: f64,
+) -> BranchPoint {
+    let evaluation = &corrected.evaluation;
+    BranchPoint {
+        index,
+        energy: shooting.energy(&evaluation.z0),
+        energy_slope: energy_slope(shooting, &corrected.unknowns, tangent),
+        period: evaluation.period,
+        frequency: 2.0 * std::f64::consts::PI / evaluation.period,
+        z0: evaluation.z0.clone(),
+        floquet: Floquet::empty(),
+        relative_residual: evaluation.relative_residual,
+        full_period_residual: f64::NAN,
+        iterations: corrected.iterations,
+        step,
+        unknowns: corrected.unknowns.clone(),
+        tangent: tangent.to_vec(),
+    }
+}
+
 /// Hands the point to the observer, stores it, and says whether to stop.
 fn record(
     point: BranchPoint,
     points: &mut Vec<BranchPoint>,
-    observer: &mut impl FnMut(&BranchPoint) -> ControlFlow<()>,
+    observer: &mut impl Observer,
     settings: &Settings,
     omega: f64,
 ) -> Option<StopReason> {
-    let flow = observer(&point);
+    let flow = observer.point(&point);
     let energy = point.energy;
     let shift = (point.frequency / omega - 1.0).abs();
     points.push(point);

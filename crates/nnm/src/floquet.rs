@@ -22,13 +22,71 @@ pub struct Floquet {
     pub multipliers: Vec<Complex>,
     /// Indices (into `multipliers`) of the two trivial ones (at `+1`).
     pub trivial: [usize; 2],
+    /// The non-trivial multipliers paired as `(μ, 1/μ)` (see [`MultiplierPair`]), the unstable
+    /// pairs first.
+    pub pairs: Vec<MultiplierPair>,
     /// Largest modulus among the non-trivial multipliers (1 when there are none).
     pub max_modulus: f64,
     /// `max_modulus ≤ 1 + tolerance`.
     pub stable: bool,
+    /// Number of pairs off the unit circle (a complex quadruplet counts as two pairs).
+    pub unstable_pairs: usize,
     /// Accuracy estimate: multipliers of a conservative system come in pairs `(μ, 1/μ)`, so
-    /// the sorted moduli satisfy `ρ_k ρ_{N-1-k} = 1`; this is the largest deviation.
+    /// this is the largest `|μ ν - 1|` over the computed pairs `(μ, ν)`.
     pub reciprocity_defect: f64,
+}
+
+impl Floquet {
+    /// No multipliers (a point whose Floquet analysis was not done).
+    pub(crate) fn empty() -> Self {
+        Self {
+            multipliers: Vec::new(),
+            trivial: [0, 0],
+            pairs: Vec::new(),
+            max_modulus: f64::NAN,
+            stable: false,
+            unstable_pairs: 0,
+            reciprocity_defect: f64::NAN,
+        }
+    }
+}
+
+/// Where a pair `(μ, 1/μ)` sits. Multipliers of a conservative (Hamiltonian) system are
+/// symmetric under `μ → 1/μ` and `μ → μ̄`, so a pair either lies on the unit circle or leaves
+/// it along the real axis (through `+1` or `-1`) or, after a Krein collision, as a member of a
+/// complex quadruplet `(μ, 1/μ, μ̄, 1/μ̄)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PairKind {
+    /// On the unit circle (within the tolerance): neutrally stable.
+    Elliptic,
+    /// Real and positive, off the circle: left through `+1` (a fold or branch point).
+    PositiveReal,
+    /// Real and negative, off the circle: left through `-1` (a period doubling).
+    NegativeReal,
+    /// Complex, off the circle: half of a quadruplet born in a Krein collision.
+    Complex,
+}
+
+/// One pair of non-trivial multipliers `(μ, ν ≈ 1/μ)`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct MultiplierPair {
+    /// The member with `|μ| ≥ 1`; for a pair on the unit circle, the one with `Im μ ≥ 0`.
+    pub multiplier: Complex,
+    /// The other member, `≈ 1/μ`.
+    pub partner: Complex,
+    pub kind: PairKind,
+}
+
+impl MultiplierPair {
+    /// `σ = μ + ν`, the pair's invariant: the characteristic polynomial of a symplectic
+    /// matrix is a polynomial in `μ + 1/μ`. It is real while the pair is on the circle
+    /// (`2 cos θ`) or on the real axis, `2` at `+1` and `-2` at `-1`, and it is smooth where
+    /// the multipliers themselves are not (`μ = 1 ± √δ` near a double root, `σ = 2 + δ`): the
+    /// test functions of [`crate::bifurcation`] are built on it.
+    pub fn trace(&self) -> Complex {
+        add(self.multiplier, self.partner)
+    }
 }
 
 /// Multipliers and stability from a monodromy matrix, the trivial pair identified as the two
@@ -101,23 +159,122 @@ pub fn analyse_deflated(
 }
 
 fn assemble(mut rest: Vec<Complex>, trivial: Vec<Complex>, tolerance: f64) -> Floquet {
-    let modulus = |z: &Complex| z.0.hypot(z.1);
-    rest.sort_by(|a, b| modulus(b).total_cmp(&modulus(a)));
-    let max_modulus = rest.first().map_or(1.0, modulus);
+    rest.sort_by(|a, b| modulus(*b).total_cmp(&modulus(*a)));
+    let max_modulus = rest.first().map_or(1.0, |z| modulus(*z));
+    let (pairs, reciprocity_defect) = pair_up(&rest, tolerance);
     let count = rest.len();
-    let reciprocity_defect = (0..count / 2)
-        .map(|k| (modulus(&rest[k]) * modulus(&rest[count - 1 - k]) - 1.0).abs())
-        .fold(0.0, f64::max);
     let mut multipliers = rest;
     multipliers.extend(trivial);
     let trivial = [count, (count + 1).min(multipliers.len().saturating_sub(1))];
     Floquet {
         stable: max_modulus <= 1.0 + tolerance,
+        unstable_pairs: pairs
+            .iter()
+            .filter(|p| p.kind != PairKind::Elliptic)
+            .count(),
         multipliers,
         trivial,
+        pairs,
         max_modulus,
         reciprocity_defect,
     }
+}
+
+/// Pairs the multipliers (sorted by decreasing modulus) greedily: each unpaired one with the
+/// unpaired one whose product is closest to 1. Returns the pairs, unstable first, and the
+/// largest `|μ ν - 1|`. An odd one out (only possible through round-off) is paired with its
+/// exact reciprocal, and its defect counted as the distance of that to the spectrum (∞ if
+/// there is nothing left to compare with).
+fn pair_up(sorted: &[Complex], tolerance: f64) -> (Vec<MultiplierPair>, f64) {
+    let mut used = vec![false; sorted.len()];
+    let mut pairs = Vec::with_capacity(sorted.len() / 2);
+    let mut defect = 0.0f64;
+    for i in 0..sorted.len() {
+        if used[i] {
+            continue;
+        }
+        used[i] = true;
+        let mu = sorted[i];
+        let best = (0..sorted.len()).filter(|&j| !used[j]).min_by(|&a, &b| {
+            let da = modulus(sub(mul(mu, sorted[a]), (1.0, 0.0)));
+            let db = modulus(sub(mul(mu, sorted[b]), (1.0, 0.0)));
+            da.total_cmp(&db)
+        });
+        let partner = match best {
+            Some(j) => {
+                used[j] = true;
+                defect = defect.max(modulus(sub(mul(mu, sorted[j]), (1.0, 0.0))));
+                sorted[j]
+            }
+            None => {
+                defect = f64::INFINITY;
+                reciprocal(mu)
+            }
+        };
+        pairs.push(classify(mu, partner, tolerance));
+    }
+    pairs.sort_by_key(|p| p.kind == PairKind::Elliptic);
+    (pairs, defect)
+}
+
+/// An unstable multiplier `μ = ρ e^{iφ}` counts as complex (half of a quadruplet) when its
+/// angle from the real axis exceeds both this and a tenth of `ln ρ`. A real pair that is
+/// double by symmetry comes out of the eigensolver as a conjugate pair split by about the
+/// square root of the monodromy's error (1e-4 to 1e-3 seen on the bladed disk), while a
+/// quadruplet from a Krein collision keeps the collision's angle as it leaves the circle, its
+/// modulus growing from 1.
+const COMPLEX_ANGLE: f64 = 1e-3;
+
+fn classify(a: Complex, b: Complex, tolerance: f64) -> MultiplierPair {
+    let (big, small) = if modulus(a) >= modulus(b) {
+        (a, b)
+    } else {
+        (b, a)
+    };
+    let rho = modulus(big);
+    if rho <= 1.0 + tolerance {
+        // On the circle: the representative is the one in the upper half plane.
+        let (multiplier, partner) = if a.1 >= b.1 { (a, b) } else { (b, a) };
+        return MultiplierPair {
+            multiplier,
+            partner,
+            kind: PairKind::Elliptic,
+        };
+    }
+    let angle = big.1.abs().atan2(big.0.abs());
+    let kind = if angle > COMPLEX_ANGLE.max(0.1 * rho.ln()) {
+        PairKind::Complex
+    } else if big.0 > 0.0 {
+        PairKind::PositiveReal
+    } else {
+        PairKind::NegativeReal
+    };
+    MultiplierPair {
+        multiplier: big,
+        partner: small,
+        kind,
+    }
+}
+
+pub(crate) fn modulus(z: Complex) -> f64 {
+    z.0.hypot(z.1)
+}
+
+pub(crate) fn add(a: Complex, b: Complex) -> Complex {
+    (a.0 + b.0, a.1 + b.1)
+}
+
+pub(crate) fn sub(a: Complex, b: Complex) -> Complex {
+    (a.0 - b.0, a.1 - b.1)
+}
+
+pub(crate) fn mul(a: Complex, b: Complex) -> Complex {
+    (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
+}
+
+fn reciprocal(z: Complex) -> Complex {
+    let r2 = z.0 * z.0 + z.1 * z.1;
+    (z.0 / r2, -z.1 / r2)
 }
 
 #[cfg(test)]
@@ -181,6 +338,58 @@ mod tests {
         assert!(f.reciprocity_defect < 1e-12);
         for k in f.trivial {
             assert!((f.multipliers[k].0 - 1.0).abs() < 2e-4);
+        }
+    }
+
+    /// A 2×2 block with eigenvalues `r e^{±iθ}`.
+    fn rotation(m: &mut Mat<f64>, at: usize, r: f64, theta: f64) {
+        let (c, s) = (r * theta.cos(), r * theta.sin());
+        m[(at, at)] = c;
+        m[(at, at + 1)] = -s;
+        m[(at + 1, at)] = s;
+        m[(at + 1, at + 1)] = c;
+    }
+
+    /// One pair of each kind: elliptic, through +1, through -1, and a Krein quadruplet. The
+    /// pairs must come out with the right partners and kinds, unstable ones first, and
+    /// `σ = μ + 1/μ` must be the pair's invariant.
+    #[test]
+    fn pairs_are_matched_and_classified() {
+        let mut m = Mat::<f64>::zeros(12, 12);
+        m[(0, 0)] = 1.0;
+        m[(0, 1)] = 0.5;
+        m[(1, 1)] = 1.0;
+        rotation(&mut m, 2, 1.0, 0.7);
+        m[(4, 4)] = 1.3;
+        m[(5, 5)] = 1.0 / 1.3;
+        m[(6, 6)] = -1.2;
+        m[(7, 7)] = -1.0 / 1.2;
+        rotation(&mut m, 8, 1.1, 0.9);
+        rotation(&mut m, 10, 1.0 / 1.1, 0.9);
+        let f = analyse(&m, DEFAULT_STABILITY_TOLERANCE).unwrap();
+        assert_eq!(f.pairs.len(), 5);
+        assert_eq!(f.unstable_pairs, 4);
+        assert!(f.reciprocity_defect < 1e-12, "{}", f.reciprocity_defect);
+        let kinds: Vec<PairKind> = f.pairs.iter().map(|p| p.kind).collect();
+        assert_eq!(kinds.iter().filter(|k| **k == PairKind::Complex).count(), 2);
+        assert!(kinds.contains(&PairKind::PositiveReal));
+        assert!(kinds.contains(&PairKind::NegativeReal));
+        assert_eq!(kinds[4], PairKind::Elliptic, "unstable pairs first");
+        for p in &f.pairs {
+            let sigma = p.trace();
+            match p.kind {
+                PairKind::Elliptic => {
+                    assert!((sigma.0 - 2.0 * 0.7f64.cos()).abs() < 1e-12 && sigma.1.abs() < 1e-12);
+                    assert!(p.multiplier.1 > 0.0);
+                }
+                PairKind::PositiveReal => assert!((sigma.0 - (1.3 + 1.0 / 1.3)).abs() < 1e-12),
+                PairKind::NegativeReal => assert!((sigma.0 + 1.2 + 1.0 / 1.2).abs() < 1e-12),
+                PairKind::Complex => {
+                    // (μ, 1/μ) with μ = 1.1 e^{±0.9i}: σ is complex, not 2 Re μ.
+                    assert!(sigma.1.abs() > 0.1);
+                    assert!((modulus(p.multiplier) - 1.1).abs() < 1e-12);
+                }
+            }
         }
     }
 }

@@ -11,11 +11,14 @@
 //! - [`shooting`]: the periodicity problem `H(z0, T) = z(T; z0) - z0 = 0` and its Jacobian;
 //! - [`continuation`]: pseudo-arclength continuation of a branch;
 //! - [`floquet`]: multipliers and stability;
+//! - [`bifurcation`]: folds, branch points, period doublings and Krein collisions along a
+//!   branch, located to the continuation tolerance, and branch switching;
 //! - [`symmetry`]: mirror symmetry of cyclic structures and the invariant subspaces it gives;
 //! - [`analysis`]: harmonics, shape change and energy localization of computed NNMs;
 //! - [`reference`]: exact solutions used for validation.
 
 pub mod analysis;
+pub mod bifurcation;
 pub mod continuation;
 pub mod floquet;
 pub mod integrate;

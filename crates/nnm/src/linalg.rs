@@ -105,6 +105,18 @@ pub fn least_squares(a: MatRef<'_, f64>, b: &[f64]) -> Vec<f64> {
     (0..a.ncols()).map(|i| x[(i, 0)]).collect()
 }
 
+/// Singular values in ascending order and the matching right singular vectors (the columns
+/// of the returned matrix): the null directions of a rank-deficient Jacobian come first.
+pub fn right_singular(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), LinalgError> {
+    let svd = a.thin_svd().map_err(|_| LinalgError::NoConvergence)?;
+    let values: Vec<f64> = svd.S().column_vector().iter().copied().collect();
+    let mut order: Vec<usize> = (0..values.len()).collect();
+    order.sort_by(|&x, &y| values[x].total_cmp(&values[y]));
+    let v = svd.V();
+    let vectors = Mat::from_fn(v.nrows(), order.len(), |i, j| v[(i, order[j])]);
+    Ok((order.iter().map(|&k| values[k]).collect(), vectors))
+}
+
 /// Euclidean norm.
 pub fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()

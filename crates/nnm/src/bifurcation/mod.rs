@@ -1,0 +1,322 @@
+//! Bifurcations along a branch: detection between consecutive points and location to the
+//! continuation tolerance.
+//!
+//! Multipliers of a conservative system come in pairs `(μ, 1/μ)` with two always at `+1`
+//! ([`crate::floquet`]). A pair can leave the unit circle in only three ways, each a codimension-1
+//! event of a one-parameter family of periodic orbits:
+//! - through `+1` ([`EventKind::BranchPoint`]): another family of the same period meets this one
+//!   (typically one that breaks a symmetry of it); when it coincides with a turning point of the
+//!   energy along the branch it is the fold itself ([`EventKind::Fold`]: on an energy surface two
+//!   orbits of the family merge there, so the surface's return map has a multiplier `+1`);
+//! - through `-1` ([`EventKind::PeriodDoubling`]): a family of twice the period branches off;
+//! - off the real axis, after two pairs collide on the circle (a Krein collision,
+//!   [`EventKind::NeimarkSacker`]): a quadruplet `(μ, 1/μ, μ̄, 1/μ̄)` forms.
+//!
+//! **Detection** compares consecutive points: the sign of `dE/ds`, and the number of pairs of
+//! each unstable kind. **Location** solves the test function's zero on the arclength interval
+//! between them with the Illinois variant of regula falsi, each trial point corrected onto the
+//! branch. The test functions are smooth across the event, which the multipliers are not:
+//! - fold: `dE/ds`;
+//! - `±1`: `2 ∓ σ` with `σ = μ + 1/μ` the pair invariant closest to `±2` (near `+1`, `μ = 1 ± √δ`
+//!   while `σ = 2 + δ`, linear in the arclength);
+//! - Krein collision: `(σ₁ - σ₂)²` for the two colliding invariants, positive while they are
+//!   real and distinct, negative (`-4 (Im σ)²`) once they are complex conjugates.
+
+mod switching;
+
+pub use switching::{Switch, SwitchError, switch_branch};
+
+use crate::continuation::BranchPoint;
+use crate::floquet::{Floquet, PairKind};
+use crate::linalg::Complex;
+
+/// The kind of a located event.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EventKind {
+    /// Turning point of the energy along the branch (`dE/ds = 0`).
+    Fold,
+    /// A non-trivial multiplier pair through `+1` away from a fold.
+    BranchPoint,
+    /// A multiplier pair through `-1`.
+    PeriodDoubling,
+    /// Two pairs collide on the unit circle and leave it as a complex quadruplet (or the
+    /// reverse).
+    NeimarkSacker,
+}
+
+impl EventKind {
+    /// The name used in files (`fold`, `branch-point`, `period-doubling`, `neimark-sacker`).
+    pub fn name(self) -> &'static str {
+        match self {
+            EventKind::Fold => "fold",
+            EventKind::BranchPoint => "branch-point",
+            EventKind::PeriodDoubling => "period-doubling",
+            EventKind::NeimarkSacker => "neimark-sacker",
+        }
+    }
+}
+
+/// A located event.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Event {
+    pub kind: EventKind,
+    /// Index of the branch point it follows (the event lies between points `after` and
+    /// `after + 1`).
+    pub after: usize,
+    /// Arclength from point `after` to the event.
+    pub arclength: f64,
+    /// Width of the final bracket on the arclength: the location's uncertainty.
+    pub arclength_uncertainty: f64,
+    /// The solution at the event (its `index` is `after`).
+    pub point: BranchPoint,
+    /// The critical multiplier: the member of the critical pair nearest `+1` (fold, branch
+    /// point) or `-1` (period doubling), or the colliding multiplier in the upper half plane.
+    pub multiplier: Complex,
+    /// How many pairs sit at the critical value within `1e-4` (for a Krein collision, how many
+    /// quadruplets form at once): more than one means a bifurcation made degenerate by
+    /// symmetry, with several null directions.
+    pub multiplicity: usize,
+    /// Corrector solves spent on locating it.
+    pub location_steps: usize,
+    /// Whether the location converged: the test function went to zero within the arclength
+    /// tolerance. `false` flags an event seen only as a change of the multipliers' pattern
+    /// (e.g. two pairs changing places in one step), placed to within
+    /// `arclength_uncertainty` but not to the tolerance.
+    pub converged: bool,
+}
+
+/// A change between two consecutive points, before location.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Crossing {
+    Fold,
+    PlusOne,
+    MinusOne,
+    /// Invariants `σ` collide near `rho` (the real part of the complex pair): two, or more
+    /// when the colliding pairs are degenerate by symmetry (`count` invariants in all).
+    Krein {
+        rho: f64,
+        count: usize,
+    },
+}
+
+impl Crossing {
+    pub(crate) fn kind(self) -> EventKind {
+        match self {
+            Crossing::Fold => EventKind::Fold,
+            Crossing::PlusOne => EventKind::BranchPoint,
+            Crossing::MinusOne => EventKind::PeriodDoubling,
+            Crossing::Krein { .. } => EventKind::NeimarkSacker,
+        }
+    }
+
+    /// Whether the test function needs the Floquet multipliers (everything but a fold).
+    pub(crate) fn needs_floquet(self) -> bool {
+        self != Crossing::Fold
+    }
+}
+
+fn count(floquet: &Floquet, kind: PairKind) -> usize {
+    floquet.pairs.iter().filter(|p| p.kind == kind).count()
+}
+
+/// The events between two consecutive points. A `+1` crossing in the same interval as a fold
+/// is the fold's own (see the module documentation) and is not reported twice.
+pub(crate) fn detect(a: &BranchPoint, b: &BranchPoint) -> Vec<Crossing> {
+    let mut found = Vec::new();
+    let fold = a.energy_slope * b.energy_slope < 0.0;
+    if fold {
+        found.push(Crossing::Fold);
+    }
+    let (fa, fb) = (&a.floquet, &b.floquet);
+    if !fold && count(fa, PairKind::PositiveReal) != count(fb, PairKind::PositiveReal) {
+        found.push(Crossing::PlusOne);
+    }
+    if count(fa, PairKind::NegativeReal) != count(fb, PairKind::NegativeReal) {
+        found.push(Crossing::MinusOne);
+    }
+    if count(fa, PairKind::Complex) != count(fb, PairKind::Complex) {
+        // The quadruplet exists on the side with more complex pairs; its freshest member (the
+        // one nearest the circle) locates the collision.
+        let side = if count(fa, PairKind::Complex) > count(fb, PairKind::Complex) {
+            fa
+        } else {
+            fb
+        };
+        let complex = || side.pairs.iter().filter(|p| p.kind == PairKind::Complex);
+        if let Some(pair) = complex().min_by(|x, y| x.trace().1.abs().total_cmp(&y.trace().1.abs()))
+        {
+            let sigma = pair.trace();
+            let count = complex()
+                .filter(|p| {
+                    let s = p.trace();
+                    (s.0 - sigma.0).hypot(s.1.abs() - sigma.1.abs()) < 1e-6
+                })
+                .count();
+            found.push(Crossing::Krein {
+                rho: sigma.0,
+                count,
+            });
+        }
+    }
+    found
+}
+
+/// The test function of a crossing at a point (see the module documentation), and the
+/// critical multiplier there.
+pub(crate) fn test_function(crossing: Crossing, point: &BranchPoint) -> Option<(f64, Complex)> {
+    let pairs = &point.floquet.pairs;
+    let real_pairs = |excluded: PairKind| {
+        pairs
+            .iter()
+            .filter(move |p| p.kind != PairKind::Complex && p.kind != excluded)
+    };
+    match crossing {
+        Crossing::Fold => {
+            let critical = real_pairs(PairKind::NegativeReal)
+                .min_by(|x, y| {
+                    (x.trace().0 - 2.0)
+                        .abs()
+                        .total_cmp(&(y.trace().0 - 2.0).abs())
+                })
+                .map_or((1.0, 0.0), |p| p.multiplier);
+            Some((point.energy_slope, critical))
+        }
+        Crossing::PlusOne => real_pairs(PairKind::NegativeReal)
+            .min_by(|x, y| {
+                (x.trace().0 - 2.0)
+                    .abs()
+                    .total_cmp(&(y.trace().0 - 2.0).abs())
+            })
+            .map(|p| (2.0 - p.trace().0, p.multiplier)),
+        Crossing::MinusOne => real_pairs(PairKind::PositiveReal)
+            .min_by(|x, y| {
+                (x.trace().0 + 2.0)
+                    .abs()
+                    .total_cmp(&(y.trace().0 + 2.0).abs())
+            })
+            .map(|p| (2.0 + p.trace().0, p.multiplier)),
+        Crossing::Krein { rho, count } => {
+            // The `count` invariants nearest `rho` among pairs that can collide (on the circle
+            // or already complex): around their mean `c`, `4 mean(Re (σ - c)²)` is `(σ₁ - σ₂)²`
+            // for two real ones and `-4 (Im σ)²` for a conjugate pair, and pairs degenerate by
+            // symmetry just repeat the same values, so no grouping is needed.
+            let mut near: Vec<(Complex, Complex)> = pairs
+                .iter()
+                .filter(|p| matches!(p.kind, PairKind::Elliptic | PairKind::Complex))
+                .map(|p| (p.trace(), p.multiplier))
+                .collect();
+            if near.len() < count.max(2) {
+                return None;
+            }
+            let distance = |s: &Complex| (s.0 - rho).hypot(s.1);
+            near.sort_by(|x, y| distance(&x.0).total_cmp(&distance(&y.0)));
+            near.truncate(count.max(2));
+            let k = near.len() as f64;
+            let centre = (
+                near.iter().map(|(s, _)| s.0).sum::<f64>() / k,
+                near.iter().map(|(s, _)| s.1).sum::<f64>() / k,
+            );
+            let spread = near
+                .iter()
+                .map(|(s, _)| (s.0 - centre.0).powi(2) - (s.1 - centre.1).powi(2))
+                .sum::<f64>()
+                / k;
+            let m = near[0].1;
+            Some((4.0 * spread, if m.1 >= 0.0 { m } else { (m.0, -m.1) }))
+        }
+    }
+}
+
+/// How many pairs sit at the critical multiplier (within 1e-4 on `σ`).
+pub(crate) fn multiplicity(crossing: Crossing, point: &BranchPoint) -> usize {
+    let target = match crossing {
+        Crossing::Fold | Crossing::PlusOne => 2.0,
+        Crossing::MinusOne => -2.0,
+        // `count` invariants: σ and σ̄ of each quadruplet.
+        Crossing::Krein { count, .. } => return (count / 2).max(1),
+    };
+    point
+        .floquet
+        .pairs
+        .iter()
+        .filter(|p| p.kind != PairKind::Complex && (p.trace().0 - target).abs() < 1e-4)
+        .count()
+        .max(1)
+}
+
+/// The zero of `f` on `[0, h]` given `f(0) = f0` and `f(h) = fh` of opposite signs, by the
+/// Illinois variant of regula falsi (superlinear, and the bracket always shrinks). `f` returns
+/// its value and whatever the caller wants to keep from the last trial. Stops when the bracket
+/// or the last move is below `tolerance` (the second is what ends it once `f` is down to its
+/// round-off, where the signs no longer shrink the bracket), or after `max_trials`.
+pub(crate) fn illinois<T>(
+    h: f64,
+    f0: f64,
+    fh: f64,
+    tolerance: f64,
+    max_trials: usize,
+    mut f: impl FnMut(f64) -> Result<(f64, T), String>,
+) -> Result<Located<T>, String> {
+    let (mut a, mut fa, mut b, mut fb) = (0.0, f0, h, fh);
+    for trial in 1..=max_trials {
+        let mut s = b - fb * (b - a) / (fb - fa);
+        let (lo, hi) = (a.min(b), a.max(b));
+        if !(s > lo && s < hi) {
+            s = 0.5 * (a + b);
+        }
+        let (fs, payload) = f(s)?;
+        let moved = (s - b).abs();
+        if fs * fb < 0.0 {
+            (a, fa) = (b, fb);
+        } else {
+            fa *= 0.5;
+        }
+        (b, fb) = (s, fs);
+        let width = (b - a).abs();
+        if fs == 0.0 || width < tolerance || moved < tolerance || trial == max_trials {
+            return Ok(Located {
+                arclength: s,
+                payload,
+                uncertainty: if fs == 0.0 { 0.0 } else { width.min(moved) },
+                trials: trial,
+                // A root drives `f` to its round-off; a jump of the test function (a sign
+                // change without a zero) does not.
+                converged: fs.abs() <= 1e-3 * f0.abs().min(fh.abs()),
+            });
+        }
+    }
+    Err("no trial was made".into())
+}
+
+pub(crate) struct Located<T> {
+    pub arclength: f64,
+    pub payload: T,
+    pub uncertainty: f64,
+    pub trials: usize,
+    pub converged: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn illinois_finds_a_simple_root_fast_and_keeps_the_bracket() {
+        let mut calls = 0;
+        let root = 0.3141592653589793;
+        let located = illinois(1.0, -root, (1.0 - root) * 2.0, 1e-12, 60, |s| {
+            calls += 1;
+            // Curved, so plain regula falsi would stall on one side.
+            Ok(((s - root) * (1.0 + s * s), s))
+        })
+        .unwrap();
+        assert!(
+            (located.arclength - root).abs() < 1e-12,
+            "{}",
+            located.arclength
+        );
+        assert!(located.uncertainty < 1e-12);
+        assert!(calls < 15, "{calls} trials");
+    }
+}
