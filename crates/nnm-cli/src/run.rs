@@ -6,12 +6,14 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
-use nnm::continuation::{Branch, BranchPoint, Start, continue_branch};
+use nnm::bifurcation::{Event, EventKind, switch_branch};
+use nnm::continuation::{Branch, BranchPoint, Observer, Start, continue_branch_observed};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
-use nnm_io::job::{BranchJob, load_job};
-use nnm_io::output::{BranchInfo, BranchWriter, write_modes_csv};
-use nnm_plot::{FrequencyEnergyPlot, Series, SeriesPoint};
+use nnm::shooting::PhaseCondition;
+use nnm_io::job::{BranchJob, EventStart, load_job};
+use nnm_io::output::{BranchInfo, BranchWriter, SwitchedFrom, write_modes_csv};
+use nnm_plot::{FrequencyEnergyPlot, Marker, Series, SeriesPoint};
 use rayon::prelude::*;
 
 pub fn modes(file: &Path, out: Option<&Path>) -> Result<()> {
@@ -56,63 +58,94 @@ pub struct BranchRequest {
 }
 
 /// The starting mode of each branch, resolved before any computation so that a wrong label
-/// fails at once.
+/// fails at once. A branch started from an event inherits its parent's mode.
 pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<BranchRequest>> {
-    branches
-        .iter()
-        .map(|b| {
-            let (index, mode) = find_mode(modes, &b.mode, b.pattern).ok_or_else(|| {
-                let labels = modes.iter().any(|m| m.cyclic.is_some());
-                let hint = if labels {
-                    "a label \"n,d\" listed by `nnm modes`, or an index"
-                } else {
-                    "an index from 0 to the number of modes - 1 (this model has no (n,d) labels)"
-                };
-                anyhow!("branch `{}`: unknown mode `{}` (expected {hint})", b.name, b.mode)
-            })?;
-            if mode.rigid {
-                bail!(
-                    "branch `{}`: mode `{}` is a rigid-body mode and has no nonlinear normal mode",
-                    b.name,
-                    b.mode
-                );
-            }
-            let found = mode.cyclic.and_then(|c| c.pattern);
-            if b.pattern.is_some() && found.is_some() && b.pattern != found {
-                bail!(
-                    "branch `{}`: mode {} is the {} wave of its pair, but `pattern` asks for the other",
-                    b.name,
-                    b.mode,
-                    if found == Some(StandingWave::Cos) { "cos" } else { "sin" }
-                );
-            }
-            if b.pattern.is_some() && mode.cyclic.is_none_or(|c| c.pattern.is_none()) {
-                bail!(
-                    "branch `{}`: `pattern` applies only to a degenerate pair, and mode `{}` is single",
-                    b.name,
-                    b.mode
-                );
-            }
-            Ok(BranchRequest {
+    let mut requests: Vec<BranchRequest> = Vec::with_capacity(branches.len());
+    for b in branches {
+        if let Some(from) = &b.from_event {
+            let parent = requests
+                .iter()
+                .find(|r| r.job.name == from.branch)
+                .ok_or_else(|| {
+                    anyhow!(
+                        "branch `{}`: `start` refers to branch `{}`, which must come before it",
+                        b.name,
+                        from.branch
+                    )
+                })?;
+            requests.push(BranchRequest {
                 job: b.clone(),
-                index,
+                index: parent.index,
                 info: BranchInfo {
                     name: b.name.clone(),
-                    mode_index: index,
-                    mode_label: mode.label(),
-                    pattern: mode.cyclic.and_then(|c| c.pattern),
-                    linear_frequency_rad_s: mode.frequency,
-                    symmetry: None,
+                    ..parent.info.clone()
                 },
-            })
-        })
-        .collect()
+            });
+            continue;
+        }
+        let (index, mode) = find_mode(modes, &b.mode, b.pattern).ok_or_else(|| {
+            let labels = modes.iter().any(|m| m.cyclic.is_some());
+            let hint = if labels {
+                "a label \"n,d\" listed by `nnm modes`, or an index"
+            } else {
+                "an index from 0 to the number of modes - 1 (this model has no (n,d) labels)"
+            };
+            anyhow!(
+                "branch `{}`: unknown mode `{}` (expected {hint})",
+                b.name,
+                b.mode
+            )
+        })?;
+        if mode.rigid {
+            bail!(
+                "branch `{}`: mode `{}` is a rigid-body mode and has no nonlinear normal mode",
+                b.name,
+                b.mode
+            );
+        }
+        let found = mode.cyclic.and_then(|c| c.pattern);
+        if b.pattern.is_some() && found.is_some() && b.pattern != found {
+            bail!(
+                "branch `{}`: mode {} is the {} wave of its pair, but `pattern` asks for the other",
+                b.name,
+                b.mode,
+                if found == Some(StandingWave::Cos) {
+                    "cos"
+                } else {
+                    "sin"
+                }
+            );
+        }
+        if b.pattern.is_some() && mode.cyclic.is_none_or(|c| c.pattern.is_none()) {
+            bail!(
+                "branch `{}`: `pattern` applies only to a degenerate pair, and mode `{}` is single",
+                b.name,
+                b.mode
+            );
+        }
+        requests.push(BranchRequest {
+            job: b.clone(),
+            index,
+            info: BranchInfo {
+                name: b.name.clone(),
+                mode_index: index,
+                mode_label: mode.label(),
+                pattern: mode.cyclic.and_then(|c| c.pattern),
+                linear_frequency_rad_s: mode.frequency,
+                symmetry: None,
+                switched_from: None,
+            },
+        });
+    }
+    Ok(requests)
 }
 
 pub struct Outcome {
     pub info: BranchInfo,
     pub result: Result<Branch>,
     pub seconds: f64,
+    /// The start the branch was computed from (what a switched branch builds on).
+    pub start: Option<Start>,
 }
 
 pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool) -> Result<()> {
@@ -160,6 +193,7 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
 }
 
 /// Computes branches in parallel (one per worker thread), each written to `out` as it goes.
+/// Branches started from an event of another run in a later round, once their parent is done.
 pub fn compute_all(
     structure: &Structure,
     modes: &[LinearMode],
@@ -176,30 +210,137 @@ pub fn compute_all(
     let total = requests.len();
     let finished = std::sync::atomic::AtomicUsize::new(0);
     let clock = Instant::now();
-    Ok(pool.install(|| {
-        requests
-            .into_par_iter()
-            .map(|request| {
-                let started = Instant::now();
-                let result = compute_branch(structure, modes, &request, out, quiet, &log, |_| {
-                    ControlFlow::Continue(())
-                });
-                let done = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                if total > 1 {
-                    let _guard = log.lock();
-                    eprintln!(
-                        "progress: {done}/{total} branches done ({:.1} s)",
-                        clock.elapsed().as_secs_f64()
-                    );
-                }
-                Outcome {
-                    info: request.info,
-                    result,
-                    seconds: started.elapsed().as_secs_f64(),
-                }
+    let names: Vec<String> = requests.iter().map(|r| r.job.name.clone()).collect();
+    let mut outcomes: Vec<Option<Outcome>> = (0..total).map(|_| None).collect();
+    while outcomes.iter().any(Option::is_none) {
+        let ready: Vec<usize> = (0..total)
+            .filter(|&k| outcomes[k].is_none())
+            .filter(|&k| match &requests[k].job.from_event {
+                None => true,
+                Some(from) => names
+                    .iter()
+                    .position(|n| *n == from.branch)
+                    .is_some_and(|p| outcomes[p].is_some()),
             })
-            .collect()
-    }))
+            .collect();
+        if ready.is_empty() {
+            bail!("branches refer to each other in a cycle");
+        }
+        let done: Vec<(usize, Outcome)> = pool.install(|| {
+            ready
+                .par_iter()
+                .map(|&k| {
+                    let request = &requests[k];
+                    let started = Instant::now();
+                    let parent = request.job.from_event.as_ref().map(|from| {
+                        let p = names.iter().position(|n| *n == from.branch).expect("ready");
+                        (from, outcomes[p].as_ref().expect("ready"))
+                    });
+                    let mut info = request.info.clone();
+                    let result = make_start(structure, modes, request, parent, &mut info).and_then(
+                        |start| {
+                            let branch = compute_branch(
+                                structure,
+                                &start,
+                                &request.job,
+                                &info,
+                                out,
+                                quiet,
+                                &log,
+                                |_| ControlFlow::Continue(()),
+                            )?;
+                            Ok((branch, start))
+                        },
+                    );
+                    let done = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                    if total > 1 {
+                        let _guard = log.lock();
+                        eprintln!(
+                            "progress: {done}/{total} branches done ({:.1} s)",
+                            clock.elapsed().as_secs_f64()
+                        );
+                    }
+                    let (result, start) = match result {
+                        Ok((branch, start)) => (Ok(branch), Some(start)),
+                        Err(e) => (Err(e), None),
+                    };
+                    let outcome = Outcome {
+                        info,
+                        result,
+                        seconds: started.elapsed().as_secs_f64(),
+                        start,
+                    };
+                    (k, outcome)
+                })
+                .collect()
+        });
+        for (k, outcome) in done {
+            outcomes[k] = Some(outcome);
+        }
+    }
+    Ok(outcomes.into_iter().map(|o| o.expect("all done")).collect())
+}
+
+/// Offset along the new family's direction at a switch, relative to the event's amplitude.
+const SWITCH_AMPLITUDE: f64 = 0.05;
+
+/// The start of a branch: its linear mode, or the switch at its parent's event (which also
+/// records, in `info`, where the branch came from).
+pub fn make_start(
+    structure: &Structure,
+    modes: &[LinearMode],
+    request: &BranchRequest,
+    parent: Option<(&EventStart, &Outcome)>,
+    info: &mut BranchInfo,
+) -> Result<Start> {
+    let job = &request.job;
+    let start = match parent {
+        None => {
+            let start = Start::from_linear_mode(structure, modes, request.index, job.energy_start)?;
+            if job.symmetry {
+                start
+            } else {
+                start.unrestricted()
+            }
+        }
+        Some((from, parent)) => {
+            let (Ok(branch), Some(parent_start)) = (&parent.result, &parent.start) else {
+                bail!("its parent branch `{}` failed", from.branch);
+            };
+            let event = branch.events.get(from.event).ok_or_else(|| {
+                anyhow!(
+                    "branch `{}` has {} events (see {}.events.csv), so no event {}",
+                    from.branch,
+                    branch.events.len(),
+                    from.branch,
+                    from.event
+                )
+            })?;
+            let switch = switch_branch(
+                structure,
+                parent_start,
+                event,
+                &job.settings,
+                SWITCH_AMPLITUDE,
+            )
+            .with_context(|| {
+                format!("cannot switch at event {} of `{}`", from.event, from.branch)
+            })?;
+            let phase = switch.start.phase.unwrap_or(job.settings.phase);
+            info.switched_from = Some(SwitchedFrom {
+                branch: from.branch.clone(),
+                event: from.event,
+                kind: event.kind.name().into(),
+                phase: match phase {
+                    PhaseCondition::ZeroVelocity => "zero-velocity".into(),
+                    PhaseCondition::FlowOrthogonal => "flow-orthogonal".into(),
+                },
+            });
+            switch.start
+        }
+    };
+    info.symmetry = start.symmetry;
+    Ok(start)
 }
 
 /// One line per branch: points, energy and frequency reached, time, why it stopped.
@@ -249,54 +390,31 @@ impl Label for BranchInfo {
     }
 }
 
-/// Computes one branch, writing every point as it converges; `extra` sees each point after it
-/// is written and may stop the branch.
+/// Computes one branch from `start`, writing every point and event as it is found; `extra`
+/// sees each point after it is written and may stop the branch.
+#[allow(clippy::too_many_arguments)]
 pub fn compute_branch(
     structure: &Structure,
-    modes: &[LinearMode],
-    request: &BranchRequest,
+    start: &Start,
+    job: &BranchJob,
+    info: &BranchInfo,
     out: &Path,
     quiet: bool,
     log: &Mutex<()>,
-    mut extra: impl FnMut(&BranchPoint) -> ControlFlow<()>,
+    extra: impl FnMut(&BranchPoint) -> ControlFlow<()>,
 ) -> Result<Branch> {
-    let (branch, index, info) = (&request.job, request.index, &request.info);
     let started = Instant::now();
-    let mut start = Start::from_linear_mode(structure, modes, index, branch.energy_start)?;
-    if !branch.symmetry {
-        start = start.unrestricted();
-    }
-    let info = &BranchInfo {
-        symmetry: start.symmetry,
-        ..info.clone()
-    };
     let mut writer = BranchWriter::create(out, info.clone())?;
-    let mut write_error = None;
-    let result = continue_branch(structure, &start, &branch.settings, |p| {
-        if let Err(e) = writer.write_point(p) {
-            write_error = Some(e);
-            return ControlFlow::Break(());
-        }
-        if !quiet {
-            let _guard = log.lock();
-            eprintln!(
-                "[{}] point {:>3}  E = {:<11.4e} f = {:.6} rad/s ({:+.3}%)  {}  |mu|max = {:.6}",
-                info.name,
-                p.index,
-                p.energy,
-                p.frequency,
-                100.0 * (p.frequency / info.linear_frequency_rad_s - 1.0),
-                if p.floquet.stable {
-                    "stable  "
-                } else {
-                    "unstable"
-                },
-                p.floquet.max_modulus
-            );
-        }
-        extra(p)
-    });
-    if let Some(e) = write_error {
+    let mut observer = Writing {
+        writer: &mut writer,
+        error: None,
+        info,
+        quiet,
+        log,
+        extra,
+    };
+    let result = continue_branch_observed(structure, start, &job.settings, &mut observer);
+    if let Some(e) = observer.error.take() {
         return Err(e.into());
     }
     match result {
@@ -304,9 +422,10 @@ pub fn compute_branch(
             writer.finish(&branch, started.elapsed().as_secs_f64())?;
             let _guard = log.lock();
             eprintln!(
-                "[{}] done: {} points, {}",
+                "[{}] done: {} points, {} events, {}",
                 info.name,
                 branch.points.len(),
+                branch.events.len(),
                 branch.stop
             );
             Ok(branch)
@@ -315,6 +434,77 @@ pub fn compute_branch(
             writer.fail(&e.to_string())?;
             Err(e.into())
         }
+    }
+}
+
+/// Writes points and events as the continuation finds them, with a progress line each.
+struct Writing<'a, F> {
+    writer: &'a mut BranchWriter,
+    error: Option<nnm_io::output::OutputError>,
+    info: &'a BranchInfo,
+    quiet: bool,
+    log: &'a Mutex<()>,
+    extra: F,
+}
+
+impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F> {
+    fn point(&mut self, p: &BranchPoint) -> ControlFlow<()> {
+        if let Err(e) = self.writer.write_point(p) {
+            self.error = Some(e);
+            return ControlFlow::Break(());
+        }
+        if !self.quiet {
+            let _guard = self.log.lock();
+            eprintln!(
+                "[{}] point {:>3}  E = {:<11.4e} f = {:.6} rad/s ({:+.3}%)  {}  |mu|max = {:.6}",
+                self.info.name,
+                p.index,
+                p.energy,
+                p.frequency,
+                100.0 * (p.frequency / self.info.linear_frequency_rad_s - 1.0),
+                if p.floquet.stable {
+                    "stable  "
+                } else {
+                    "unstable"
+                },
+                p.floquet.max_modulus
+            );
+        }
+        (self.extra)(p)
+    }
+
+    fn event(&mut self, e: &Event) -> ControlFlow<()> {
+        if let Err(err) = self.writer.write_event(e) {
+            self.error = Some(err);
+            return ControlFlow::Break(());
+        }
+        if !self.quiet {
+            let _guard = self.log.lock();
+            eprintln!(
+                "[{}] event: {} at E = {:.10e}, f = {:.9} rad/s, multiplier ({:.6}, {:.6}){}",
+                self.info.name,
+                e.kind.name(),
+                e.point.energy,
+                e.point.frequency,
+                e.multiplier.0,
+                e.multiplier.1,
+                if e.converged {
+                    ""
+                } else {
+                    " (location not converged)"
+                }
+            );
+        }
+        ControlFlow::Continue(())
+    }
+}
+
+fn event_abbreviation(kind: EventKind) -> &'static str {
+    match kind {
+        EventKind::Fold => "F",
+        EventKind::BranchPoint => "BP",
+        EventKind::PeriodDoubling => "PD",
+        EventKind::NeimarkSacker => "NS",
     }
 }
 
@@ -343,10 +533,22 @@ pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
     if series.is_empty() {
         return Ok(());
     }
+    // Events as labelled dots: F fold, BP branch point, PD period doubling, NS Krein collision.
+    let markers = outcomes
+        .iter()
+        .filter_map(|o| o.result.as_ref().ok())
+        .flat_map(|branch| &branch.events)
+        .map(|e| Marker {
+            x: e.point.energy,
+            y: e.point.frequency,
+            label: event_abbreviation(e.kind).into(),
+        })
+        .collect();
     FrequencyEnergyPlot {
         title: title.into(),
         series,
         frequency_label: "frequency (rad/s)".into(),
+        markers,
         ..Default::default()
     }
     .write(stem)?;

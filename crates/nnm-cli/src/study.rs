@@ -21,7 +21,7 @@ use nnm_io::job::{BranchJob, load_job};
 use nnm_io::output::write_modes_csv;
 use nnm_plot::{FrequencyEnergyPlot, Line, LinePlot, Marker, PlotGrid, Series, SeriesPoint};
 
-use crate::run::{Outcome, compute_all, compute_branch, create_dir, resolve};
+use crate::run::{Outcome, compute_all, compute_branch, create_dir, make_start, resolve};
 
 /// What to run.
 pub struct StudyOptions {
@@ -90,6 +90,7 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
         .map(|label| BranchJob {
             name: name_of(label),
             mode: label.clone(),
+            from_event: None,
             pattern: None,
             energy_start: None,
             symmetry: true,
@@ -593,10 +594,13 @@ fn single_branch(
     let request = resolve(std::slice::from_ref(job), modes)?
         .pop()
         .expect("one request per job");
+    let mut info = request.info.clone();
+    let start = make_start(structure, modes, &request, None, &mut info)?;
     compute_branch(
         structure,
-        modes,
-        &request,
+        &start,
+        &request.job,
+        &info,
         out,
         true,
         &Mutex::new(()),
@@ -706,6 +710,7 @@ fn tongue(
     let job = BranchJob {
         name: "tongue-0-6".into(),
         mode: "0,6".into(),
+        from_event: None,
         pattern: None,
         energy_start: None,
         symmetry: true,
@@ -810,6 +815,7 @@ fn tongue_outputs(
     let job = BranchJob {
         name: "mode-1-12-fine".into(),
         mode: "1,12".into(),
+        from_event: None,
         pattern: None,
         energy_start: None,
         symmetry: true,

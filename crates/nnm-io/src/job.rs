@@ -12,6 +12,11 @@
 //! name = "mode-1-5"
 //! mode = "1,5"                    # label "n,d", or 0-based index into the ascending modes
 //! energy_max = 10.0
+//!
+//! [[branch]]                      # switch onto the family through an event of a branch above
+//! name = "switched"
+//! start = { branch = "mode-1-5", event = 0 }   # row `index` of mode-1-5.events.csv
+//! energy_max = 10.0
 //! ```
 //!
 //! Unknown keys are errors (a typo must not silently fall back to a default), and every error
@@ -67,8 +72,10 @@ pub struct Job {
 #[derive(Debug, Clone)]
 pub struct BranchJob {
     pub name: String,
-    /// Mode label `"n,d"` or index, as written.
+    /// Mode label `"n,d"` or index, as written (empty for a branch started from an event).
     pub mode: String,
+    /// Start from an event of an earlier branch instead of a linear mode.
+    pub from_event: Option<EventStart>,
     pub pattern: Option<StandingWave>,
     /// Linear energy of the starting guess (`None`: chosen from the nonlinearity's size).
     pub energy_start: Option<f64>,
@@ -76,6 +83,15 @@ pub struct BranchJob {
     /// one (default `true`).
     pub symmetry: bool,
     pub settings: Settings,
+}
+
+/// `start = { branch = "NAME", event = K }`: the family through event `K` (0-based, the
+/// `index` column of `NAME.events.csv`) of branch `NAME`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EventStart {
+    pub branch: String,
+    pub event: usize,
 }
 
 #[derive(Debug, Deserialize)]
@@ -265,15 +281,40 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
         if branches.iter().any(|b: &BranchJob| b.name == name) {
             return Err(invalid(format!("duplicate branch name `{name}`")));
         }
-        let mode = match table.remove("mode") {
-            Some(toml::Value::String(s)) => s,
-            Some(toml::Value::Integer(i)) if i >= 0 => i.to_string(),
-            Some(_) => {
+        let from_event: Option<EventStart> = match table.remove("start") {
+            None => None,
+            Some(value) => Some(value.try_into().map_err(|e: toml::de::Error| {
+                invalid(context(&format!(
+                    "`start` must be {{ branch = \"NAME\", event = K }}: {}",
+                    e.message()
+                )))
+            })?),
+        };
+        if let Some(start) = &from_event
+            && !branches.iter().any(|b: &BranchJob| b.name == start.branch)
+        {
+            return Err(invalid(context(&format!(
+                "`start` refers to branch `{}`, which must be defined above this one",
+                start.branch
+            ))));
+        }
+        let mode = match (table.remove("mode"), &from_event) {
+            (Some(_), Some(_)) => {
+                return Err(invalid(context("give either `mode` or `start`, not both")));
+            }
+            (None, Some(_)) => String::new(),
+            (Some(toml::Value::String(s)), None) => s,
+            (Some(toml::Value::Integer(i)), None) if i >= 0 => i.to_string(),
+            (Some(_), None) => {
                 return Err(invalid(context(
                     "`mode` must be a label \"n,d\" or a non-negative index",
                 )));
             }
-            None => return Err(invalid(context("missing `mode`"))),
+            (None, None) => {
+                return Err(invalid(context(
+                    "missing `mode` (or `start = { branch = \"NAME\", event = K }`)",
+                )));
+            }
         };
         let pattern = match table.remove("pattern") {
             None => None,
@@ -307,6 +348,7 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
         branches.push(BranchJob {
             name,
             mode,
+            from_event,
             pattern,
             energy_start: options.energy_start,
             symmetry: options.symmetry.unwrap_or(true),

@@ -1,6 +1,8 @@
-//! Result files (SPEC §5): `modes.csv`, and per branch `<name>.csv` and `<name>.json`.
+//! Result files (SPEC §5): `modes.csv`, and per branch `<name>.csv`, `<name>.json` and
+//! `<name>.events.csv` (folds, branch points, period doublings and Krein collisions).
 //!
-//! Both branch files are written as each point converges, so an interruption loses nothing:
+//! The branch files are written as each point converges or event is located, so an
+//! interruption loses nothing:
 //! the CSV gains a flushed row; the JSON stays a valid document throughout — its `points`
 //! array is last, and each new point is spliced in before the closing `]}` — with
 //! `"status": "running"` until the branch ends and the document is rewritten complete.
@@ -9,6 +11,7 @@ use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
+use nnm::bifurcation::Event;
 use nnm::continuation::{Branch, BranchPoint, BranchStats};
 use nnm::modes::{LinearMode, StandingWave};
 use nnm::symmetry::Parity;
@@ -74,6 +77,22 @@ pub struct BranchInfo {
     pub linear_frequency_rad_s: f64,
     /// Mirror-symmetry class the shooting unknowns were restricted to (`even`/`odd`), if any.
     pub symmetry: Option<Parity>,
+    /// For a branch switched onto at an event of another: that branch and event.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub switched_from: Option<SwitchedFrom>,
+}
+
+/// Where a switched branch came from.
+#[derive(Debug, Clone, Serialize)]
+pub struct SwitchedFrom {
+    pub branch: String,
+    /// Index of the event in the parent's `<name>.events.csv`.
+    pub event: usize,
+    /// The event's type (`branch-point`, `period-doubling`).
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// Phase condition the new branch was posed with.
+    pub phase: String,
 }
 
 /// One point as stored in `<name>.json`.
@@ -95,9 +114,13 @@ struct PointRecord<'a> {
     multipliers: Vec<[f64; 2]>,
     /// Indices into `multipliers` of the two trivial ones (at +1).
     trivial_multipliers: [usize; 2],
-    /// Largest deviation of the non-trivial pairs from `ρ_k ρ_{N-1-k} = 1`: an accuracy
+    /// Largest `|μ ν - 1|` over the pairs `(μ, ν)` of non-trivial multipliers: an accuracy
     /// estimate of the multipliers.
     reciprocity_defect: f64,
+    /// Number of multiplier pairs off the unit circle.
+    unstable_pairs: usize,
+    /// `dE/ds` along the branch (changes sign at a fold).
+    energy_slope: f64,
 }
 
 impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
@@ -122,6 +145,46 @@ impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
                 .collect(),
             trivial_multipliers: p.floquet.trivial,
             reciprocity_defect: p.floquet.reciprocity_defect,
+            unstable_pairs: p.floquet.unstable_pairs,
+            energy_slope: p.energy_slope,
+        }
+    }
+}
+
+/// One event as stored in `<name>.json`.
+#[derive(Debug, Serialize)]
+struct EventRecord<'a> {
+    index: usize,
+    #[serde(rename = "type")]
+    kind: &'static str,
+    energy: f64,
+    frequency_rad_s: f64,
+    period_s: f64,
+    /// The critical multiplier `[re, im]`.
+    multiplier: [f64; 2],
+    multiplicity: usize,
+    /// The event lies between this point and the next.
+    after_point: usize,
+    arclength_uncertainty: f64,
+    converged: bool,
+    /// Initial state `[x0; v0]` of the motion at the event.
+    z0: &'a [f64],
+}
+
+impl<'a> EventRecord<'a> {
+    fn new(index: usize, e: &'a Event) -> Self {
+        Self {
+            index,
+            kind: e.kind.name(),
+            energy: e.point.energy,
+            frequency_rad_s: e.point.frequency,
+            period_s: e.point.period,
+            multiplier: [e.multiplier.0, e.multiplier.1],
+            multiplicity: e.multiplicity,
+            after_point: e.after,
+            arclength_uncertainty: e.arclength_uncertainty,
+            converged: e.converged,
+            z0: &e.point.z0,
         }
     }
 }
@@ -137,6 +200,10 @@ struct Document<'a> {
     stats: Option<&'a BranchStats>,
     #[serde(skip_serializing_if = "Option::is_none")]
     wall_time_s: Option<f64>,
+    /// Located events (written complete when the branch ends; `<name>.events.csv` has them as
+    /// they come).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    events: Option<Vec<EventRecord<'a>>>,
     points: Vec<PointRecord<'a>>,
 }
 
@@ -157,7 +224,10 @@ impl std::fmt::Display for Number {
 }
 
 /// Columns of `<name>.csv`, in order.
-pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual";
+pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs";
+
+/// Columns of `<name>.events.csv`, in order.
+pub const EVENTS_CSV_HEADER: &str = "index,type,energy,frequency_rad_s,period_s,multiplier_re,multiplier_im,multiplier_modulus,multiplicity,after_point,arclength_uncertainty,converged";
 
 /// Streams one branch to `<dir>/<name>.csv` and `<dir>/<name>.json`.
 pub struct BranchWriter {
@@ -166,7 +236,10 @@ pub struct BranchWriter {
     csv_path: PathBuf,
     json: File,
     json_path: PathBuf,
+    events_csv: File,
+    events_path: PathBuf,
     points: usize,
+    events: usize,
 }
 
 impl BranchWriter {
@@ -175,6 +248,9 @@ impl BranchWriter {
         let json_path = dir.join(format!("{}.json", info.name));
         let mut csv = File::create(&csv_path).map_err(output_error(&csv_path))?;
         writeln!(csv, "{BRANCH_CSV_HEADER}").map_err(output_error(&csv_path))?;
+        let events_path = dir.join(format!("{}.events.csv", info.name));
+        let mut events_csv = File::create(&events_path).map_err(output_error(&events_path))?;
+        writeln!(events_csv, "{EVENTS_CSV_HEADER}").map_err(output_error(&events_path))?;
         let mut json = File::create(&json_path).map_err(output_error(&json_path))?;
         let document = Document {
             info: &info,
@@ -182,6 +258,7 @@ impl BranchWriter {
             stop_reason: None,
             stats: None,
             wall_time_s: None,
+            events: None,
             points: vec![],
         };
         let text = serde_json::to_string(&document).expect("serialisable");
@@ -193,15 +270,45 @@ impl BranchWriter {
             csv_path,
             json,
             json_path,
+            events_csv,
+            events_path,
             points: 0,
+            events: 0,
         })
+    }
+
+    /// Appends one located event to `<name>.events.csv` (flushed before returning).
+    pub fn write_event(&mut self, e: &Event) -> Result<(), OutputError> {
+        let (re, im) = e.multiplier;
+        writeln!(
+            self.events_csv,
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            self.events,
+            e.kind.name(),
+            Number(e.point.energy),
+            Number(e.point.frequency),
+            Number(e.point.period),
+            Number(re),
+            Number(im),
+            Number(re.hypot(im)),
+            e.multiplicity,
+            e.after,
+            Number(e.arclength_uncertainty),
+            e.converged
+        )
+        .map_err(output_error(&self.events_path))?;
+        self.events_csv
+            .flush()
+            .map_err(output_error(&self.events_path))?;
+        self.events += 1;
+        Ok(())
     }
 
     /// Appends one converged point to both files (flushed to the OS before returning).
     pub fn write_point(&mut self, p: &BranchPoint) -> Result<(), OutputError> {
         writeln!(
             self.csv,
-            "{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{}",
             p.index,
             Number(p.energy),
             Number(p.frequency),
@@ -211,7 +318,8 @@ impl BranchWriter {
             Number(p.relative_residual),
             p.iterations,
             Number(p.step),
-            Number(p.full_period_residual)
+            Number(p.full_period_residual),
+            p.floquet.unstable_pairs
         )
         .map_err(output_error(&self.csv_path))?;
         let record = serde_json::to_string(&PointRecord::from(p)).expect("serialisable");
@@ -233,6 +341,7 @@ impl BranchWriter {
             stop_reason: Some(reason.to_string()),
             stats: None,
             wall_time_s: None,
+            events: None,
             points: vec![],
         };
         self.replace_json(&document)
@@ -253,6 +362,14 @@ impl BranchWriter {
             stop_reason: Some(branch.stop.to_string()),
             stats: Some(&branch.stats),
             wall_time_s: Some(wall_time_s),
+            events: Some(
+                branch
+                    .events
+                    .iter()
+                    .enumerate()
+                    .map(|(k, e)| EventRecord::new(k, e))
+                    .collect(),
+            ),
             points: branch.points.iter().map(PointRecord::from).collect(),
         };
         self.replace_json(&document)
