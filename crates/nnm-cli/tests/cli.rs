@@ -103,6 +103,24 @@ fn bad_input_gives_one_line_errors() {
         "[model]\nfamily = \"bladed-disk\"\n[[branch]]\nname = \"x\"\nmode = 2\npattern = \"cos\"\nenergy_max = 1.0\n",
         "asks for the other",
     );
+    expect_error(
+        &format!(
+            "{TWO_DOF}[[branch]]\nname = \"c\"\nstart = {{ branch = \"b\", event = 0 }}\nenergy_max = 1.0\n{BRANCH}"
+        ),
+        "`start` refers to branch `b`, which must be defined above this one",
+    );
+    expect_error(
+        &format!(
+            "{TWO_DOF}{BRANCH}[[branch]]\nname = \"c\"\nmode = 1\nstart = {{ branch = \"b\", event = 0 }}\nenergy_max = 1.0\n"
+        ),
+        "either `mode` or `start`",
+    );
+    expect_error(
+        &format!(
+            "{TWO_DOF}{BRANCH}[[branch]]\nname = \"c\"\nstart = {{ branch = \"b\", point = 0 }}\nenergy_max = 1.0\n"
+        ),
+        "`start` must be { branch = \"NAME\", event = K }",
+    );
     {
         // A Matrix Market header announcing a matrix too large to store densely.
         let dir = scratch("big");
@@ -261,4 +279,67 @@ fn interrupted_run_keeps_every_point() {
         points.abs_diff(csv_rows) <= 1,
         "{points} JSON points vs {csv_rows} CSV rows"
     );
+}
+
+/// Issue 4 from the command line: the events file beside the branch, and a branch switched
+/// onto at an event; asking for an event that does not exist fails that branch with a clear
+/// message and a non-zero exit, after the others are written.
+#[test]
+fn events_are_written_and_branches_switch_at_them() {
+    let dir = scratch("events");
+    let job = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/two-dof-bifurcation.toml"
+    );
+    let out = dir.join("out");
+    let output = nnm(&["run", job, "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let events = std::fs::read_to_string(out.join("in-phase.events.csv")).unwrap();
+    let mut lines = events.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for column in [
+        "type",
+        "energy",
+        "frequency_rad_s",
+        "multiplier_re",
+        "multiplier_im",
+    ] {
+        assert!(header.contains(&column), "missing column {column}");
+    }
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 1, "{events}");
+    let column = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    assert_eq!(rows[0][column("type")], "branch-point");
+    let energy: f64 = rows[0][column("energy")].parse().unwrap();
+    assert!((39.6..41.3).contains(&energy), "{energy}");
+    let switched = std::fs::read_to_string(out.join("symmetry-broken.csv")).unwrap();
+    assert!(switched.lines().count() > 3, "{switched}");
+    let json = std::fs::read_to_string(out.join("symmetry-broken.json")).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(doc["switched_from"]["branch"], "in-phase");
+    assert_eq!(doc["switched_from"]["type"], "branch-point");
+    let parent: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("in-phase.json")).unwrap()).unwrap();
+    assert_eq!(parent["events"].as_array().unwrap().len(), 1);
+
+    let text = std::fs::read_to_string(job)
+        .unwrap()
+        .replace("event = 0", "event = 5");
+    let bad = write(&dir, "bad.toml", &text);
+    let output = nnm(&[
+        "run",
+        &bad,
+        "--out",
+        dir.join("bad").to_str().unwrap(),
+        "--quiet",
+    ]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("has 1 events"), "{stderr}");
+    assert!(!stderr.contains("panicked"));
+    assert!(dir.join("bad/in-phase.csv").exists());
 }

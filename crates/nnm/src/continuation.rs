@@ -833,11 +833,11 @@ fn energy_slope<S: SecondOrderSystem + ?Sized>(
 
 /// Relative arclength accuracy to which events are located (relative to `‖q‖`): energies
 /// then come out to about twice that.
-const EVENT_ARCLENGTH_TOLERANCE: f64 = 1e-9;
+const EVENT_ARCLENGTH_TOLERANCE: f64 = 1e-8;
 /// Trials allowed to the secant location (it converges in 5–12 on a simple root).
 const SECANT_TRIALS: usize = 20;
 /// Trials allowed to the bisection fallback (about 30 halvings reach the tolerance).
-const BISECTION_TRIALS: usize = 36;
+const BISECTION_TRIALS: usize = 30;
 
 /// Detects the events between two consecutive points and locates each one: every trial is a
 /// point at arclength `s` from `previous`, corrected on the hyperplane
@@ -891,31 +891,18 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
                 bifurcation::illinois(h, f0, f1, tolerance, SECANT_TRIALS, |s| {
                     let p = trial_point(s, crossing.needs_floquet())?;
                     let f = value(&p).ok_or("the critical pair vanished")?;
-                    if std::env::var("NNM_DEBUG_EVENTS").is_ok() {
-                        eprintln!("  trial s={s:.15e} f={f:.6e} {crossing:?}");
-                    }
                     Ok((f, p))
                 })
             }
             // The counts changed but the test function does not bracket a zero (e.g. two pairs
             // crossing in one interval): bisect on which side's signature a trial shares.
-            _ => {
-                let side = |p: &BranchPoint| {
-                    if bifurcation::detect(previous, p).contains(&crossing) {
-                        -1.0
-                    } else {
-                        1.0
-                    }
-                };
-                bifurcation::illinois(h, 1.0, -1.0, tolerance, BISECTION_TRIALS, |s| {
-                    let p = trial_point(s, true)?;
-                    Ok((side(&p), p))
-                })
-                .map(|mut found| {
-                    found.converged = found.uncertainty <= tolerance;
-                    found
-                })
-            }
+            _ => bifurcation::bisect(h, tolerance, BISECTION_TRIALS, |s| {
+                let p = trial_point(s, true)?;
+                let past = bifurcation::detect(previous, &p)
+                    .iter()
+                    .any(|c| c.kind() == crossing.kind());
+                Ok((past, p))
+            }),
         };
         let point = match result {
             Ok(found) => {

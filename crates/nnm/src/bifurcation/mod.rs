@@ -129,10 +129,25 @@ pub(crate) fn detect(a: &BranchPoint, b: &BranchPoint) -> Vec<Crossing> {
         found.push(Crossing::Fold);
     }
     let (fa, fb) = (&a.floquet, &b.floquet);
-    if !fold && count(fa, PairKind::PositiveReal) != count(fb, PairKind::PositiveReal) {
+    // A pair counts as crossing `±1` when it leaves (or rejoins) the circle by more than the
+    // stability tolerance *and* its invariant passes `±2` in the interval: a pair already
+    // beyond `±1` but within the tolerance at `a` crossed earlier (at the linear limit, for
+    // the degenerate partner of a standing wave), and only its stability verdict changes here.
+    let beyond = |f: &Floquet, target: f64| {
+        f.pairs
+            .iter()
+            .filter(|p| p.kind != PairKind::Complex && (p.trace().0 - target) * target > 0.0)
+            .count()
+    };
+    if !fold
+        && count(fa, PairKind::PositiveReal) != count(fb, PairKind::PositiveReal)
+        && beyond(fa, 2.0) != beyond(fb, 2.0)
+    {
         found.push(Crossing::PlusOne);
     }
-    if count(fa, PairKind::NegativeReal) != count(fb, PairKind::NegativeReal) {
+    if count(fa, PairKind::NegativeReal) != count(fb, PairKind::NegativeReal)
+        && beyond(fa, -2.0) != beyond(fb, -2.0)
+    {
         found.push(Crossing::MinusOne);
     }
     if count(fa, PairKind::Complex) != count(fb, PairKind::Complex) {
@@ -182,20 +197,8 @@ pub(crate) fn test_function(crossing: Crossing, point: &BranchPoint) -> Option<(
                 .map_or((1.0, 0.0), |p| p.multiplier);
             Some((point.energy_slope, critical))
         }
-        Crossing::PlusOne => real_pairs(PairKind::NegativeReal)
-            .min_by(|x, y| {
-                (x.trace().0 - 2.0)
-                    .abs()
-                    .total_cmp(&(y.trace().0 - 2.0).abs())
-            })
-            .map(|p| (2.0 - p.trace().0, p.multiplier)),
-        Crossing::MinusOne => real_pairs(PairKind::PositiveReal)
-            .min_by(|x, y| {
-                (x.trace().0 + 2.0)
-                    .abs()
-                    .total_cmp(&(y.trace().0 + 2.0).abs())
-            })
-            .map(|p| (2.0 + p.trace().0, p.multiplier)),
+        Crossing::PlusOne => characteristic(pairs, 2.0),
+        Crossing::MinusOne => characteristic(pairs, -2.0),
         Crossing::Krein { rho, count } => {
             // The `count` invariants nearest `rho` among pairs that can collide (on the circle
             // or already complex): around their mean `c`, `4 mean(Re (σ - c)²)` is `(σ₁ - σ₂)²`
@@ -227,6 +230,43 @@ pub(crate) fn test_function(crossing: Crossing, point: &BranchPoint) -> Option<(
         }
     }
 }
+
+/// `∏ (target - σ_k)·sign(target)` over the distinct invariants (twins by symmetry counted
+/// once): `det(±I - D)` up to round-off, with `D` the monodromy with its trivial pair
+/// deflated, so smooth along the branch. It changes sign when one pair (or one symmetric set of
+/// twins) crosses `±1`, while pairs that stay near `±1` without crossing (a degenerate
+/// partner, say) do not disturb it, unlike a test on the single pair nearest `±1`. Complex
+/// invariants come in conjugates, whose product is positive. Also returns the multiplier of
+/// the pair nearest the target.
+fn characteristic(pairs: &[crate::floquet::MultiplierPair], target: f64) -> Option<(f64, Complex)> {
+    let mut seen: Vec<Complex> = Vec::new();
+    let mut value = 1.0f64;
+    for p in pairs {
+        let s = p.trace();
+        if seen
+            .iter()
+            .any(|t| (t.0 - s.0).hypot(t.1 - s.1) < TWIN_INVARIANT * s.0.abs().max(1.0))
+        {
+            continue;
+        }
+        seen.push(s);
+        if s.1.abs() > TWIN_INVARIANT * s.0.abs().max(1.0) {
+            // One of a conjugate pair: the two factors multiply to |target - σ|².
+            value *= (target - s.0).hypot(s.1);
+        } else {
+            value *= (target - s.0) * target.signum();
+        }
+    }
+    let nearest = pairs.iter().min_by(|x, y| {
+        (x.trace().0 - target)
+            .abs()
+            .total_cmp(&(y.trace().0 - target).abs())
+    })?;
+    value.is_finite().then_some((value, nearest.multiplier))
+}
+
+/// Invariants this close (relative) are twins: pairs degenerate by a symmetry of the motion.
+const TWIN_INVARIANT: f64 = 1e-6;
 
 /// How many pairs sit at the critical multiplier (within 1e-4 on `σ`).
 pub(crate) fn multiplicity(crossing: Crossing, point: &BranchPoint) -> usize {
@@ -283,6 +323,41 @@ pub(crate) fn illinois<T>(
                 // A root drives `f` to its round-off; a jump of the test function (a sign
                 // change without a zero) does not.
                 converged: fs.abs() <= 1e-3 * f0.abs().min(fh.abs()),
+            });
+        }
+    }
+    Err("no trial was made".into())
+}
+
+/// Bisection of `[0, h]` on a yes/no question whose answer is "no" at 0 and "yes" at `h`:
+/// returns the first "yes" trial once the bracket is narrower than `tolerance`.
+pub(crate) fn bisect<T>(
+    h: f64,
+    tolerance: f64,
+    max_trials: usize,
+    mut is_past: impl FnMut(f64) -> Result<(bool, T), String>,
+) -> Result<Located<T>, String> {
+    let (mut a, mut b) = (0.0, h);
+    let mut best = None;
+    for trial in 1..=max_trials {
+        let s = 0.5 * (a + b);
+        let (past, payload) = is_past(s)?;
+        if past {
+            b = s;
+            best = Some((s, payload));
+        } else {
+            a = s;
+        }
+        if (b - a).abs() < tolerance || trial == max_trials {
+            let Some((arclength, payload)) = best else {
+                return Err("the change was not seen inside the step".into());
+            };
+            return Ok(Located {
+                arclength,
+                payload,
+                uncertainty: (b - a).abs(),
+                trials: trial,
+                converged: (b - a).abs() < tolerance,
             });
         }
     }

@@ -1,0 +1,244 @@
+//! Bifurcations along NNM branches (issue 4): events located independently of the step size,
+//! checked against an independent monodromy, and a switched branch that is a different family.
+//!
+//! Run in the release profile: `cargo test --release -p nnm --test bifurcations -- --nocapture`
+//! (the figures are printed with `eprintln!`).
+
+use std::ops::ControlFlow;
+
+use nnm::bifurcation::{Event, EventKind, switch_branch};
+use nnm::continuation::{Branch, Settings, Start, continue_branch};
+use nnm::floquet;
+use nnm::integrate::{DOP853, Integrator, Steps, Tolerances};
+use nnm::model::{BladedDisk, Structure, duffing, two_dof};
+use nnm::modes::{StandingWave, find_mode, linear_modes};
+use nnm::shooting::JacobianMethod;
+
+fn branch(structure: &Structure, start: &Start, settings: &Settings) -> Branch {
+    continue_branch(structure, start, settings, |_| ControlFlow::Continue(())).unwrap()
+}
+
+fn of_kind(branch: &Branch, kind: EventKind) -> Vec<&Event> {
+    branch.events.iter().filter(|e| e.kind == kind).collect()
+}
+
+fn relative(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+/// The in-phase backbone of the two-DOF system to E = 100 at a given largest step.
+fn in_phase(max_step: f64) -> (Structure, Start, Settings, Branch) {
+    let structure = two_dof(0.5).unwrap();
+    let modes = linear_modes(&structure).unwrap();
+    let start = Start::from_linear_mode(&structure, &modes, 0, None).unwrap();
+    let settings = Settings {
+        energy_max: 100.0,
+        max_step,
+        ..Settings::default()
+    };
+    let b = branch(&structure, &start, &settings);
+    (structure, start, settings, b)
+}
+
+/// SPEC §4 / issue 4: the in-phase branch loses stability at a branch point near E = 41. Its
+/// location must not depend on the step that happened to bracket it, and the critical
+/// multiplier must sit at +1 in an independently computed (finite-difference, full-period)
+/// monodromy at the located point.
+#[test]
+fn two_dof_branch_point_is_located_independently_of_the_step() {
+    let (structure, start, settings, coarse) = in_phase(0.25);
+    let (_, _, _, fine) = in_phase(0.05);
+    let (a, b) = (
+        of_kind(&coarse, EventKind::BranchPoint),
+        of_kind(&fine, EventKind::BranchPoint),
+    );
+    assert_eq!((a.len(), b.len()), (1, 1), "one branch point each");
+    let (a, b) = (a[0], b[0]);
+    let gap = relative(a.point.energy, b.point.energy);
+    eprintln!(
+        "two-DOF branch point: E = {:.10} (max step 0.25, {} points) vs {:.10} (0.05, {} points), \
+         relative gap {gap:.1e}",
+        a.point.energy,
+        coarse.points.len(),
+        b.point.energy,
+        fine.points.len()
+    );
+    assert!(gap < 1e-6, "located energies differ by {gap:.1e}");
+    assert!(a.converged && b.converged);
+    assert!((39.6..41.3).contains(&a.point.energy));
+    // Stable before, unstable after, on both branches.
+    for (branch, event) in [(&coarse, a), (&fine, b)] {
+        assert!(branch.points[event.after].floquet.stable);
+        assert!(!branch.points[event.after + 1].floquet.stable);
+    }
+    // Independent check: finite-difference monodromy over the full period.
+    let fd_settings = Settings {
+        jacobian: JacobianMethod::FiniteDifference,
+        half_period: false,
+        ..settings.clone()
+    };
+    let mut shooting = start.shooting(&structure, &fd_settings);
+    let u = shooting.unknowns_from_state(&a.point.z0, a.point.period);
+    let evaluation = shooting.evaluate(&u, &a.point.z0).unwrap();
+    assert!(evaluation.relative_residual < 1e-7);
+    let monodromy = shooting.monodromy(&evaluation).unwrap();
+    let f = floquet::analyse(&monodromy, settings.stability_tolerance).unwrap();
+    let closest = f
+        .pairs
+        .iter()
+        .map(|p| (p.trace().0 - 2.0).abs())
+        .fold(f64::INFINITY, f64::min);
+    eprintln!("  finite-difference monodromy at the located point: |σ - 2| = {closest:.1e}");
+    assert!(closest < 1e-5, "σ - 2 = {closest:.1e}");
+}
+
+/// `‖z(T/2) + z0‖ / ‖z0‖`: zero for a motion with the half-wave symmetry of the in-phase
+/// backbone.
+fn half_wave_asymmetry(structure: &Structure, z0: &[f64], period: f64) -> f64 {
+    let tolerances = Tolerances {
+        relative: 1e-12,
+        absolute: 1e-12,
+        velocity_scale: 1.0,
+    };
+    let flow = Integrator::new(&DOP853, tolerances)
+        .flow(
+            structure,
+            z0,
+            0.5 * period,
+            None,
+            Steps::Adaptive { first_step: None },
+        )
+        .unwrap();
+    let sum: Vec<f64> = flow.z.iter().zip(z0).map(|(a, b)| a + b).collect();
+    nnm::linalg::norm(&sum) / nnm::linalg::norm(z0)
+}
+
+/// Issue 4: switching at the two-DOF branch point gives converged motions of another family:
+/// they break the half-wave symmetry that every motion of the parent has, and they lie off
+/// the parent's frequency-energy curve.
+#[test]
+fn switched_branch_is_a_new_family() {
+    let (structure, start, settings, parent) = in_phase(0.25);
+    let event = of_kind(&parent, EventKind::BranchPoint)[0];
+    let switch = switch_branch(&structure, &start, event, &settings, 0.05).unwrap();
+    eprintln!(
+        "switch: singular values {:?}, phase {:?}",
+        switch.singular_values, switch.start.phase
+    );
+    assert_eq!(switch.null_directions, 1);
+    let child = branch(
+        &structure,
+        &switch.start,
+        &Settings {
+            max_points: 12,
+            ..settings.clone()
+        },
+    );
+    assert!(child.points.len() >= 5, "{} points", child.points.len());
+    // The parent's frequency at energy E, interpolated in log E.
+    let parent_frequency = |e: f64| {
+        let w = parent
+            .points
+            .windows(2)
+            .find(|w| w[0].energy <= e && e <= w[1].energy)
+            .expect("within the parent's range");
+        let t = (e.ln() - w[0].energy.ln()) / (w[1].energy.ln() - w[0].energy.ln());
+        w[0].frequency + t * (w[1].frequency - w[0].frequency)
+    };
+    let parent_asymmetry = half_wave_asymmetry(&structure, &event.point.z0, event.point.period);
+    eprintln!("  parent at the event: half-wave asymmetry {parent_asymmetry:.1e}");
+    assert!(parent_asymmetry < 1e-6);
+    for p in &child.points {
+        assert!(p.relative_residual < settings.tolerance);
+        let asymmetry = half_wave_asymmetry(&structure, &p.z0, p.period);
+        let off = p.energy < 100.0 && p.index > 0;
+        let gap = if off {
+            relative(p.frequency, parent_frequency(p.energy))
+        } else {
+            f64::NAN
+        };
+        eprintln!(
+            "  child point {}: E = {:.4}, f = {:.6}, half-wave asymmetry {asymmetry:.2e}, \
+             frequency off the parent by {gap:.1e}",
+            p.index, p.energy, p.frequency
+        );
+        assert!(asymmetry > 1e-3, "point {} is half-wave symmetric", p.index);
+        if off {
+            assert!(gap > 1e-4, "point {} lies on the parent's curve", p.index);
+        }
+    }
+}
+
+/// No events where there are none: the Duffing oscillator has no non-trivial multipliers and
+/// its energy grows monotonically along the backbone.
+#[test]
+fn duffing_backbone_has_no_events() {
+    let structure = duffing(1.0, 1.0).unwrap();
+    let modes = linear_modes(&structure).unwrap();
+    let start = Start::from_linear_mode(&structure, &modes, 0, None).unwrap();
+    let settings = Settings {
+        frequency_shift_max: 0.5,
+        ..Settings::default()
+    };
+    let b = branch(&structure, &start, &settings);
+    assert!(b.points.len() > 10);
+    assert!(b.events.is_empty(), "{:?}", b.events);
+}
+
+/// Issue 4: the (1,14) backbone's S-shaped fold before it localizes, and the Krein collisions
+/// where it loses and regains stability, located to better than 1e-6 in energy whatever the
+/// step.
+#[test]
+fn bladed_disk_1_14_folds_and_krein_collisions_do_not_depend_on_the_step() {
+    let structure = BladedDisk::default().build().unwrap();
+    let modes = linear_modes(&structure).unwrap();
+    let (index, _) = find_mode(&modes, "1,14", Some(StandingWave::Cos)).unwrap();
+    let start = Start::from_linear_mode(&structure, &modes, index, None).unwrap();
+    let run = |max_step: f64| {
+        branch(
+            &structure,
+            &start,
+            &Settings {
+                frequency_shift_max: 0.15,
+                max_step,
+                ..Settings::default()
+            },
+        )
+    };
+    let (coarse, fine) = (run(0.25), run(0.15));
+    for kind in [EventKind::Fold, EventKind::NeimarkSacker] {
+        let converged = |b: &Branch| -> Vec<f64> {
+            of_kind(b, kind)
+                .iter()
+                .filter(|e| e.converged)
+                .map(|e| e.point.energy)
+                .collect()
+        };
+        let (a, b) = (converged(&coarse), converged(&fine));
+        eprintln!(
+            "(1,14) {}: {a:.9?} (max step 0.25) vs {b:.9?} (0.15)",
+            kind.name()
+        );
+        // Every event of the coarse run is found again by the fine one at the same energy.
+        // (A finer step may also resolve events that a coarse step hides: two collisions
+        // within one step, one making a quadruplet and one undoing it, change no count.)
+        for x in &a {
+            let nearest = b
+                .iter()
+                .map(|y| relative(*x, *y))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                nearest < 1e-6,
+                "{} at E = {x} not found again ({nearest:.1e})",
+                kind.name()
+            );
+        }
+        if kind == EventKind::Fold {
+            // The S: up to a maximum of the energy, back down, up again, around E ≈ 8.6.
+            assert_eq!((a.len(), b.len()), (2, 2));
+            assert!(a[0] > a[1] && (8.0..9.5).contains(&a[0]));
+        } else {
+            assert!(a.len() >= 3);
+        }
+    }
+}
