@@ -281,8 +281,16 @@ pub fn compute_all(
     Ok(outcomes.into_iter().map(|o| o.expect("all done")).collect())
 }
 
+/// The phase condition's name in job files.
+pub fn phase_name(phase: PhaseCondition) -> &'static str {
+    match phase {
+        PhaseCondition::ZeroVelocity => "zero-velocity",
+        PhaseCondition::FlowOrthogonal => "flow-orthogonal",
+    }
+}
+
 /// Offset along the new family's direction at a switch, relative to the event's amplitude.
-const SWITCH_AMPLITUDE: f64 = 0.05;
+pub const SWITCH_AMPLITUDE: f64 = 0.05;
 
 /// The start of a branch: its linear mode, or the switch at its parent's event (which also
 /// records, in `info`, where the branch came from).
@@ -331,10 +339,7 @@ pub fn make_start(
                 branch: from.branch.clone(),
                 event: from.event,
                 kind: event.kind.name().into(),
-                phase: match phase {
-                    PhaseCondition::ZeroVelocity => "zero-velocity".into(),
-                    PhaseCondition::FlowOrthogonal => "flow-orthogonal".into(),
-                },
+                phase: phase_name(phase).into(),
             });
             switch.start
         }

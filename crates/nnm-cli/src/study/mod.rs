@@ -23,6 +23,8 @@ use nnm_plot::{FrequencyEnergyPlot, Line, LinePlot, Marker, PlotGrid, Series, Se
 
 use crate::run::{Outcome, compute_all, compute_branch, create_dir, make_start, resolve};
 
+mod bifurcations;
+
 /// What to run.
 pub struct StudyOptions {
     /// A subset of backbones and no finite-difference comparison: a first look in seconds.
@@ -140,6 +142,7 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
         backbones_time,
     )?;
     localization(structure, &modes, branch("1,14"), out, &mut report)?;
+    bifurcations::bifurcations(structure, &modes, &outcomes, &settings, out, &mut report)?;
 
     // The 3:1 tongue, with sensitivities and (full study) with finite differences.
     let tongue = tongue(
@@ -720,6 +723,9 @@ fn tongue(
             max_points: 1000,
             max_step: TONGUE_MAX_STEP,
             jacobian,
+            // The tongue's own fold and junction analysis follows; the cost comparison wants
+            // the same work from both Jacobians.
+            events: false,
             ..settings.clone()
         },
     };
@@ -823,6 +829,7 @@ fn tongue_outputs(
             energy_max: 3.0 * e_junction,
             frequency_shift_max: f64::INFINITY,
             max_step: REFERENCE_MAX_STEP,
+            events: false,
             ..settings.clone()
         },
     };
