@@ -325,6 +325,19 @@ pub(super) fn bifurcations(
         ],
         frequency_label: "frequency (rad/s)".into(),
         markers,
+        // Zoom on the switch: from a third of the branch point's energy to past the end of
+        // the switched family.
+        x_range: Some((
+            event.point.energy / 3.0,
+            2.0 * switched
+                .points
+                .last()
+                .map_or(event.point.energy, |p| p.energy),
+        )),
+        y_range: Some((
+            cos.frequency * 0.995,
+            cos.frequency * (1.0 + SWITCHED_SHIFT + 0.02),
+        )),
         ..Default::default()
     }
     .write(&out.join("bifurcations"))?;
