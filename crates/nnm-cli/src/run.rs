@@ -345,6 +345,8 @@ pub fn make_start(
         }
     };
     info.symmetry = start.symmetry;
+    // A period-doubled family is measured against half the parent's frequency.
+    info.linear_frequency_rad_s = start.omega;
     Ok(start)
 }
 

@@ -10,7 +10,8 @@ use nnm::bifurcation::{Event, EventKind, switch_branch};
 use nnm::continuation::{Branch, Settings, Start, continue_branch};
 use nnm::floquet;
 use nnm::integrate::{DOP853, Integrator, Steps, Tolerances};
-use nnm::model::{BladedDisk, Structure, duffing, two_dof};
+use nnm::linalg::Mat;
+use nnm::model::{BladedDisk, PolynomialSpring, Structure, duffing, two_dof};
 use nnm::modes::{StandingWave, find_mode, linear_modes};
 use nnm::shooting::JacobianMethod;
 
@@ -240,5 +241,118 @@ fn bladed_disk_1_14_folds_and_krein_collisions_do_not_depend_on_the_step() {
         } else {
             assert!(a.len() >= 3);
         }
+    }
+}
+
+/// A system with a period doubling: oscillator 0 (ω = 1, hardening) drives oscillator 1
+/// (ω = 0.55) through a quadratic spring between them, whose tangent pumps oscillator 1 at
+/// the motion's own frequency — a Mathieu equation whose principal instability tongue sits
+/// where 0.55 is half the frequency, so a multiplier pair passes -1.
+fn parametric_pair() -> Structure {
+    Structure::new(
+        Mat::<f64>::identity(2, 2),
+        Mat::from_fn(2, 2, |i, j| match (i, j) {
+            (0, 0) => 1.0,
+            (1, 1) => 0.3025,
+            _ => 0.0,
+        }),
+        vec![
+            Box::new(PolynomialSpring::cubic(0, None, 1.0)),
+            Box::new(PolynomialSpring::new(0, Some(1), 0.3, 2)),
+        ],
+    )
+    .unwrap()
+}
+
+/// Issue 4: a period doubling located independently of the step, confirmed by an independent
+/// (finite-difference) monodromy, and the switched branch: converged motions of twice the
+/// period that do not repeat after one parent period.
+#[test]
+fn period_doubling_is_located_and_switched() {
+    let structure = parametric_pair();
+    let modes = linear_modes(&structure).unwrap();
+    let start = Start::from_linear_mode(&structure, &modes, 1, None).unwrap();
+    let run = |max_step: f64| {
+        let settings = Settings {
+            energy_max: 0.2,
+            max_step,
+            ..Settings::default()
+        };
+        let b = branch(&structure, &start, &settings);
+        (settings, b)
+    };
+    let ((settings, coarse), (_, fine)) = (run(0.25), run(0.1));
+    let (a, b) = (
+        of_kind(&coarse, EventKind::PeriodDoubling),
+        of_kind(&fine, EventKind::PeriodDoubling),
+    );
+    assert_eq!((a.len(), b.len()), (1, 1));
+    let (a, b) = (a[0], b[0]);
+    let gap = relative(a.point.energy, b.point.energy);
+    eprintln!(
+        "period doubling: E = {:.12} (max step 0.25) vs {:.12} (0.1), gap {gap:.1e}, f = {:.9}",
+        a.point.energy, b.point.energy, a.point.frequency
+    );
+    assert!(gap < 1e-6);
+    // Independent check: the finite-difference monodromy has a pair at -1 there.
+    let fd = Settings {
+        jacobian: JacobianMethod::FiniteDifference,
+        ..settings.clone()
+    };
+    let mut shooting = start.shooting(&structure, &fd);
+    let u = shooting.unknowns_from_state(&a.point.z0, a.point.period);
+    let evaluation = shooting.evaluate(&u, &a.point.z0).unwrap();
+    let f = floquet::analyse(&shooting.monodromy(&evaluation).unwrap(), 1e-4).unwrap();
+    let closest = f
+        .pairs
+        .iter()
+        .map(|p| (p.trace().0 + 2.0).abs())
+        .fold(f64::INFINITY, f64::min);
+    eprintln!("  finite-difference monodromy: |σ + 2| = {closest:.1e}");
+    assert!(closest < 1e-5);
+
+    let switch = switch_branch(&structure, &start, a, &settings, 0.05).unwrap();
+    let child = branch(
+        &structure,
+        &switch.start,
+        &Settings {
+            max_points: 10,
+            energy_max: f64::INFINITY,
+            ..settings.clone()
+        },
+    );
+    assert!(child.points.len() >= 5);
+    for p in &child.points {
+        assert!(p.relative_residual < settings.tolerance);
+        // Twice the parent's period near the event, ...
+        let ratio = p.period / a.point.period;
+        // ... and after one parent period the motion is elsewhere.
+        let tolerances = Tolerances {
+            relative: 1e-12,
+            absolute: 1e-12,
+            velocity_scale: 1.0,
+        };
+        let half = Integrator::new(&DOP853, tolerances)
+            .flow(
+                &structure,
+                &p.z0,
+                0.5 * p.period,
+                None,
+                Steps::Adaptive { first_step: None },
+            )
+            .unwrap();
+        let mismatch: Vec<f64> = half.z.iter().zip(&p.z0).map(|(a, b)| a - b).collect();
+        let repeat = nnm::linalg::norm(&mismatch) / nnm::linalg::norm(&p.z0);
+        eprintln!(
+            "  child point {}: E = {:.6}, period / parent period = {ratio:.6}, \
+             ‖z(T/2) - z0‖/‖z0‖ = {repeat:.2e}",
+            p.index, p.energy
+        );
+        assert!((1.8..2.2).contains(&ratio));
+        assert!(
+            repeat > 1e-3,
+            "point {} repeats after half its period",
+            p.index
+        );
     }
 }
