@@ -93,24 +93,31 @@ fn two_dof_branch_point_is_located_independently_of_the_step() {
     assert!(closest < 1e-5, "σ - 2 = {closest:.1e}");
 }
 
-/// `‖z(T/2) + z0‖ / ‖z0‖`: zero for a motion with the half-wave symmetry of the in-phase
-/// backbone.
-fn half_wave_asymmetry(structure: &Structure, z0: &[f64], period: f64) -> f64 {
+/// The state after `duration` from `z0`, integrated independently of the shooting (tight
+/// tolerance, fresh adaptive steps).
+fn state_after(structure: &Structure, z0: &[f64], duration: f64) -> Vec<f64> {
     let tolerances = Tolerances {
         relative: 1e-12,
         absolute: 1e-12,
         velocity_scale: 1.0,
     };
-    let flow = Integrator::new(&DOP853, tolerances)
+    Integrator::new(&DOP853, tolerances)
         .flow(
             structure,
             z0,
-            0.5 * period,
+            duration,
             None,
             Steps::Adaptive { first_step: None },
         )
-        .unwrap();
-    let sum: Vec<f64> = flow.z.iter().zip(z0).map(|(a, b)| a + b).collect();
+        .unwrap()
+        .z
+}
+
+/// `‖z(T/2) + z0‖ / ‖z0‖`: zero for a motion with the half-wave symmetry of the in-phase
+/// backbone.
+fn half_wave_asymmetry(structure: &Structure, z0: &[f64], period: f64) -> f64 {
+    let half = state_after(structure, z0, 0.5 * period);
+    let sum: Vec<f64> = half.iter().zip(z0).map(|(a, b)| a + b).collect();
     nnm::linalg::norm(&sum) / nnm::linalg::norm(z0)
 }
 
@@ -327,21 +334,8 @@ fn period_doubling_is_located_and_switched() {
         // Twice the parent's period near the event, ...
         let ratio = p.period / a.point.period;
         // ... and after one parent period the motion is elsewhere.
-        let tolerances = Tolerances {
-            relative: 1e-12,
-            absolute: 1e-12,
-            velocity_scale: 1.0,
-        };
-        let half = Integrator::new(&DOP853, tolerances)
-            .flow(
-                &structure,
-                &p.z0,
-                0.5 * p.period,
-                None,
-                Steps::Adaptive { first_step: None },
-            )
-            .unwrap();
-        let mismatch: Vec<f64> = half.z.iter().zip(&p.z0).map(|(a, b)| a - b).collect();
+        let half = state_after(&structure, &p.z0, 0.5 * p.period);
+        let mismatch: Vec<f64> = half.iter().zip(&p.z0).map(|(a, b)| a - b).collect();
         let repeat = nnm::linalg::norm(&mismatch) / nnm::linalg::norm(&p.z0);
         eprintln!(
             "  child point {}: E = {:.6}, period / parent period = {ratio:.6}, \

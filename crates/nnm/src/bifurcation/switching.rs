@@ -124,14 +124,8 @@ pub fn switch_branch<S: SecondOrderSystem + ?Sized>(
     if candidate.null_count < 2 && configured == PhaseCondition::ZeroVelocity {
         candidate = attempt(PhaseCondition::FlowOrthogonal)?;
     }
-    let Candidate {
-        start: child,
-        shooting,
-        u_star,
-        values,
-        vectors,
-        null_count,
-    } = candidate;
+    let (child, shooting, u_star) = (candidate.start, candidate.shooting, candidate.u_star);
+    let (values, vectors, null_count) = (candidate.values, candidate.vectors, candidate.null_count);
     let m = u_star.len();
     let shown: Vec<String> = values.iter().take(4).map(|v| format!("{v:.1e}")).collect();
     if null_count < 2 {
