@@ -6,7 +6,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
-use nnm::bifurcation::{Event, EventKind, switch_branch};
+use nnm::bifurcation::{Event, switch_branch};
 use nnm::continuation::{Branch, BranchPoint, Observer, Start, continue_branch_observed};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
@@ -317,9 +317,10 @@ pub fn make_start(
             };
             let event = branch.events.get(from.event).ok_or_else(|| {
                 anyhow!(
-                    "branch `{}` has {} events (see {}.events.csv), so no event {}",
+                    "branch `{}` has {} event{} (see {}.events.csv), so no event {}",
                     from.branch,
                     branch.events.len(),
+                    if branch.events.len() == 1 { "" } else { "s" },
                     from.branch,
                     from.event
                 )
@@ -506,15 +507,6 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F>
     }
 }
 
-fn event_abbreviation(kind: EventKind) -> &'static str {
-    match kind {
-        EventKind::Fold => "F",
-        EventKind::BranchPoint => "BP",
-        EventKind::PeriodDoubling => "PD",
-        EventKind::NeimarkSacker => "NS",
-    }
-}
-
 /// One frequency–energy plot of every branch that has points: `<stem>.png` and `<stem>.svg`.
 pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
     let series: Vec<Series> = outcomes
@@ -548,7 +540,7 @@ pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
         .map(|e| Marker {
             x: e.point.energy,
             y: e.point.frequency,
-            label: event_abbreviation(e.kind).into(),
+            label: e.kind.abbreviation().into(),
         })
         .collect();
     FrequencyEnergyPlot {

@@ -339,7 +339,29 @@ fn events_are_written_and_branches_switch_at_them() {
     ]);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("has 1 events"), "{stderr}");
+    assert!(stderr.contains("has 1 event "), "{stderr}");
     assert!(!stderr.contains("panicked"));
     assert!(dir.join("bad/in-phase.csv").exists());
+
+    // Parent and child posed with different phase conditions: the switch takes the parent's
+    // direction from the event itself, not from the child's unknowns.
+    let text = std::fs::read_to_string(job).unwrap().replace(
+        "name = \"in-phase\"\nmode = 0",
+        "name = \"in-phase\"\nmode = 0\nphase = \"flow-orthogonal\"",
+    );
+    assert!(text.contains("flow-orthogonal"));
+    let mixed = write(&dir, "mixed.toml", &text);
+    let output = nnm(&[
+        "run",
+        &mixed,
+        "--out",
+        dir.join("mixed").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(dir.join("mixed/symmetry-broken.csv").exists());
 }

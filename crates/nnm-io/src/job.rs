@@ -325,6 +325,20 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
         let options: Options = table
             .try_into()
             .map_err(|e: toml::de::Error| invalid(context(e.message())))?;
+        if from_event.is_some() {
+            // A switched branch takes its start, unknowns and period from the switch.
+            let ignored = [
+                ("pattern", pattern.is_some()),
+                ("energy_start", options.energy_start.is_some()),
+                ("symmetry", options.symmetry.is_some()),
+                ("half_period", options.half_period.is_some()),
+            ];
+            if let Some((key, _)) = ignored.iter().find(|(_, given)| *given) {
+                return Err(invalid(context(&format!(
+                    "`{key}` does not apply to a branch that starts from an event"
+                ))));
+            }
+        }
         let options = options.or(&defaults);
         let settings = options.settings().map_err(|m| invalid(context(&m)))?;
         settings

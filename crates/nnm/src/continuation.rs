@@ -904,7 +904,7 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
                 Ok((past, p))
             }),
         };
-        let point = match result {
+        let located_point = match result {
             Ok(found) => {
                 let summary = (
                     found.arclength,
@@ -922,12 +922,15 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
             Err(why) => Err(why),
         };
         stats.newton_iterations += newton;
-        let Ok((point, (arclength, uncertainty, trials, converged))) = point else {
-            continue;
-        };
+        // A detected event whose location failed is still reported, at the step's end, with
+        // the whole step as its uncertainty.
+        let (point, (arclength, uncertainty, trials, converged)) =
+            located_point.unwrap_or_else(|_| (next.clone(), (h, h.abs(), 0, false)));
         stats.location_steps += trials;
         let multiplier =
             bifurcation::test_function(crossing, &point).map_or((1.0, 0.0), |(_, m)| m);
+        let state_tangent = shooting.initial_state(&point.tangent);
+        let period_rate = point.tangent[point.tangent.len() - 1] * shooting.period_ref();
         located.push(Event {
             kind: crossing.kind(),
             after: previous.index,
@@ -937,6 +940,8 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
             multiplier,
             location_steps: trials,
             converged,
+            state_tangent,
+            period_rate,
             point,
         });
     }

@@ -204,6 +204,8 @@ pub(super) fn bifurcations(
     };
     let mut info = parent.info.clone();
     info.name = job.name.clone();
+    info.symmetry = switch.start.symmetry;
+    info.linear_frequency_rad_s = switch.start.omega;
     info.switched_from = Some(SwitchedFrom {
         branch: parent.info.name.clone(),
         event: k,
@@ -246,17 +248,21 @@ pub(super) fn bifurcations(
     let multiplicity = event.multiplicity;
     report.line(&format!(
         "**(1,5): branch switching.** The first branch point of the (1,5) cos wave is at \
-         E = {:.8}, f = {:.8} rad/s, where {} multiplier pair{} reach +1 together (the \
-         bifurcation is made degenerate by the symmetry of the disk). The switch found {} null \
+         E = {:.8}, f = {:.8} rad/s, where {} multiplier pair{} reach +1{}. The switch found {} null \
          direction{} of the unrestricted, full-period shooting Jacobian beside the parent's \
          tangent (smallest singular values {}), and followed the family along the first, posed \
-         with the {} phase condition: {} points to +{:.0}% frequency, every one converged to \
-         the shooting tolerance. On the parent the sin wave's share of the (1,5) pair is \
+         with the {} phase condition: {} points to +{:.0}% frequency. On the parent the sin wave's share of the (1,5) pair is \
          {parent_sin:.1e} and the travelling index {parent_travel:+.1e}; on the new family:",
         event.point.energy,
         event.point.frequency,
         multiplicity,
         if multiplicity == 1 { "" } else { "s" },
+        if multiplicity == 1 {
+            ""
+        } else {
+            " together (a bifurcation made degenerate by a symmetry; the first null direction \
+             is followed, the others lead to further families)"
+        },
         switch.null_directions,
         if switch.null_directions == 1 { "" } else { "s" },
         switch
@@ -308,13 +314,7 @@ pub(super) fn bifurcations(
         .map(|e| Marker {
             x: e.point.energy,
             y: e.point.frequency,
-            label: match e.kind {
-                EventKind::Fold => "F",
-                EventKind::BranchPoint => "BP",
-                EventKind::PeriodDoubling => "PD",
-                EventKind::NeimarkSacker => "NS",
-            }
-            .into(),
+            label: e.kind.abbreviation().into(),
         })
         .collect();
     FrequencyEnergyPlot {

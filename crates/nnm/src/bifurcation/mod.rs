@@ -55,6 +55,16 @@ impl EventKind {
             EventKind::NeimarkSacker => "neimark-sacker",
         }
     }
+
+    /// Short label for plots: F, BP, PD, NS.
+    pub fn abbreviation(self) -> &'static str {
+        match self {
+            EventKind::Fold => "F",
+            EventKind::BranchPoint => "BP",
+            EventKind::PeriodDoubling => "PD",
+            EventKind::NeimarkSacker => "NS",
+        }
+    }
 }
 
 /// A located event.
@@ -70,6 +80,10 @@ pub struct Event {
     pub arclength_uncertainty: f64,
     /// The solution at the event (its `index` is `after`).
     pub point: BranchPoint,
+    /// The branch's direction there in state space, `dz0/ds` (length 2n), and its period
+    /// rate `dT/ds`: what switching needs of the parent, whatever unknowns it was posed in.
+    pub state_tangent: Vec<f64>,
+    pub period_rate: f64,
     /// The critical multiplier: the member of the critical pair nearest `+1` (fold, branch
     /// point) or `-1` (period doubling), or the colliding multiplier in the upper half plane.
     pub multiplier: Complex,
@@ -139,18 +153,24 @@ pub(crate) fn detect(a: &BranchPoint, b: &BranchPoint) -> Vec<Crossing> {
             .filter(|p| p.kind != PairKind::Complex && (p.trace().0 - target) * target > 0.0)
             .count()
     };
+    // Every event of the list leaves or joins the unit circle, so the number of elliptic
+    // pairs changes; a quadruplet landing on the real axis off the circle (complex pairs
+    // turning into real ones) changes other counts only and is no bifurcation.
+    let on_circle_changed = count(fa, PairKind::Elliptic) != count(fb, PairKind::Elliptic);
     if !fold
+        && on_circle_changed
         && count(fa, PairKind::PositiveReal) != count(fb, PairKind::PositiveReal)
         && beyond(fa, 2.0) != beyond(fb, 2.0)
     {
         found.push(Crossing::PlusOne);
     }
-    if count(fa, PairKind::NegativeReal) != count(fb, PairKind::NegativeReal)
+    if on_circle_changed
+        && count(fa, PairKind::NegativeReal) != count(fb, PairKind::NegativeReal)
         && beyond(fa, -2.0) != beyond(fb, -2.0)
     {
         found.push(Crossing::MinusOne);
     }
-    if count(fa, PairKind::Complex) != count(fb, PairKind::Complex) {
+    if on_circle_changed && count(fa, PairKind::Complex) != count(fb, PairKind::Complex) {
         // The quadruplet exists on the side with more complex pairs; its freshest member (the
         // one nearest the circle) locates the collision.
         let side = if count(fa, PairKind::Complex) > count(fb, PairKind::Complex) {
@@ -321,8 +341,8 @@ pub(crate) fn illinois<T>(
                 uncertainty: if fs == 0.0 { 0.0 } else { width.min(moved) },
                 trials: trial,
                 // A root drives `f` to its round-off; a jump of the test function (a sign
-                // change without a zero) does not.
-                converged: fs.abs() <= 1e-3 * f0.abs().min(fh.abs()),
+                // change without a zero) leaves it at the size of the jump.
+                converged: fs.abs() <= 1e-3 * f0.abs().max(fh.abs()),
             });
         }
     }
@@ -357,7 +377,9 @@ pub(crate) fn bisect<T>(
                 payload,
                 uncertainty: (b - a).abs(),
                 trials: trial,
-                converged: (b - a).abs() < tolerance,
+                // Placed where the pattern of the multipliers changes (to the bracket), not
+                // at a zero of a test function.
+                converged: false,
             });
         }
     }

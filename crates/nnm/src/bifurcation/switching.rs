@@ -82,10 +82,14 @@ pub fn switch_branch<S: SecondOrderSystem + ?Sized>(
         other => return Err(SwitchError::NotABifurcation(other.name())),
     };
     let point = &event.point;
-    let parent_shooting = parent.shooting(system, settings);
-    // Direction of the parent family in state space and its period rate.
-    let parent_direction = parent_shooting.initial_state(&point.tangent);
-    let period_rate = point.tangent[point.tangent.len() - 1] * parent_shooting.period_ref();
+    let n2 = 2 * system.dofs();
+    if point.z0.len() != n2 || event.state_tangent.len() != n2 {
+        return Err(SwitchError::Evaluation(format!(
+            "the event's state has length {}, the system {n2}",
+            point.z0.len()
+        )));
+    }
+    let (parent_direction, period_rate) = (&event.state_tangent, event.period_rate);
 
     let mut child = parent.clone().unrestricted();
     child.half_period = false;
@@ -135,7 +139,7 @@ pub fn switch_branch<S: SecondOrderSystem + ?Sized>(
         });
     }
     // The parent's tangent in the new unknowns, and the null direction most orthogonal to it.
-    let mut tangent = shooting.unknowns_from_state(&parent_direction, multiple * period_rate);
+    let mut tangent = shooting.unknowns_from_state(parent_direction, multiple * period_rate);
     let norm = linalg::norm(&tangent);
     tangent.iter_mut().for_each(|x| *x /= norm);
     let column = |j: usize| -> Vec<f64> { (0..m).map(|i| vectors[(i, j)]).collect() };
