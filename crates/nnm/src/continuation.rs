@@ -834,6 +834,8 @@ fn energy_slope<S: SecondOrderSystem + ?Sized>(
 /// Relative arclength accuracy to which events are located (relative to `‖q‖`): energies
 /// then come out to about twice that.
 const EVENT_ARCLENGTH_TOLERANCE: f64 = 1e-8;
+/// Trial points of a location are converged to this fraction of the continuation tolerance.
+const EVENT_TRIAL_TOLERANCE_FACTOR: f64 = 1e-2;
 /// Trials allowed to the secant location (it converges in 5–12 on a simple root).
 const SECANT_TRIALS: usize = 20;
 /// Trials allowed to the bisection fallback (about 30 halvings reach the tolerance).
@@ -858,25 +860,42 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
         .map(|(t, (a, b))| t * (a - b))
         .sum();
     let tolerance = EVENT_ARCLENGTH_TOLERANCE * amplitude_norm(u0);
+    // Trial points are converged further than branch points: near a branch point the
+    // corrector's Jacobian is nearly singular, and a residual at the continuation tolerance
+    // leaves an error along the null direction that shifts the test function (seen as a
+    // 2e-6 shift of the two-DOF branch point on the full-period problem). The integration
+    // accuracy (`integration_factor × tolerance`) leaves room for this.
+    let tight = Settings {
+        tolerance: EVENT_TRIAL_TOLERANCE_FACTOR * settings.tolerance,
+        ..settings.clone()
+    };
     let mut located = Vec::new();
     for crossing in bifurcation::detect(previous, next) {
         let mut newton = 0;
+        // Solutions found so far on this step, by arclength: each trial starts from the line
+        // through the two nearest, so that late trials start within the corrector's own
+        // accuracy. (From the chord between the step's ends, a trial near a branch point of
+        // the full-period problem can converge onto the crossing family instead.)
+        let mut known: Vec<(f64, Vec<f64>)> = vec![(0.0, u0.clone()), (h, u1.clone())];
         let mut trial_point = |s: f64, with_floquet: bool| -> Result<BranchPoint, String> {
-            let guess: Vec<f64> = u0
-                .iter()
-                .zip(u1)
-                .map(|(a, b)| a + (s / h) * (b - a))
-                .collect();
+            known.sort_by(|a, b| (a.0 - s).abs().total_cmp(&(b.0 - s).abs()));
+            let ((sa, ua), (sb, ub)) = (&known[0], &known[1]);
+            let w = if sb != sa { (s - sa) / (sb - sa) } else { 0.0 };
+            let guess: Vec<f64> = ua.iter().zip(ub).map(|(a, b)| a + w * (b - a)).collect();
             let anchor: Vec<f64> = u0.iter().zip(t0).map(|(a, t)| a + s * t).collect();
-            let corrected = correct(
-                shooting,
-                &guess,
-                t0,
-                &anchor,
-                &previous.z0,
-                settings,
-                &mut newton,
-            )?;
+            let mut solve = |settings: &Settings| {
+                correct(
+                    shooting,
+                    &guess,
+                    t0,
+                    &anchor,
+                    &previous.z0,
+                    settings,
+                    &mut newton,
+                )
+            };
+            let corrected = solve(&tight).or_else(|_| solve(settings))?;
+            known.push((s, corrected.unknowns.clone()));
             let t = tangent(&corrected.evaluation, t0);
             if with_floquet {
                 make_point(shooting, &corrected, &t, previous.index, s, settings)
