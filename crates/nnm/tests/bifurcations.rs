@@ -85,6 +85,24 @@ fn two_dof_branch_point_is_located_independently_of_the_step() {
     );
     assert!(gap < 1e-6, "located energies differ by {gap:.1e}");
     assert!(a.converged && b.converged);
+    // The same branch point on a different problem: full period, velocities among the
+    // unknowns (flow-orthogonal phase), where the crossing family is representable.
+    let general = branch(
+        &structure,
+        &start,
+        &Settings {
+            phase: nnm::shooting::PhaseCondition::FlowOrthogonal,
+            ..settings.clone()
+        },
+    );
+    let c = of_kind(&general, EventKind::BranchPoint);
+    assert_eq!(c.len(), 1);
+    let gap = relative(c[0].point.energy, a.point.energy);
+    eprintln!(
+        "  full-period, flow-orthogonal problem: E = {:.10}, {gap:.1e} away",
+        c[0].point.energy
+    );
+    assert!(gap < 1e-6);
     assert!((39.6..41.3).contains(&a.point.energy));
     // Stable before, unstable after, on both branches.
     for (branch, event) in [(&coarse, a), (&fine, b)] {
