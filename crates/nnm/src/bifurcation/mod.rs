@@ -397,6 +397,126 @@ pub(crate) struct Located<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::floquet;
+    use crate::linalg::Mat;
+
+    /// A point whose monodromy is block diagonal: the trivial Jordan block at +1, then one
+    /// 2×2 block per pair given as (modulus, angle) of `r e^{±iθ}`, or a real pair
+    /// (`μ`, `1/μ`) when the angle is `None`.
+    fn point(energy_slope: f64, pairs: &[(f64, Option<f64>)]) -> BranchPoint {
+        let n = 2 + 2 * pairs.len();
+        let mut m = Mat::<f64>::zeros(n, n);
+        m[(0, 0)] = 1.0;
+        m[(0, 1)] = 0.3;
+        m[(1, 1)] = 1.0;
+        for (k, (r, angle)) in pairs.iter().enumerate() {
+            let a = 2 + 2 * k;
+            match angle {
+                Some(theta) => {
+                    let (c, s) = (r * theta.cos(), r * theta.sin());
+                    m[(a, a)] = c;
+                    m[(a, a + 1)] = -s;
+                    m[(a + 1, a)] = s;
+                    m[(a + 1, a + 1)] = c;
+                }
+                None => {
+                    m[(a, a)] = *r;
+                    m[(a + 1, a + 1)] = 1.0 / r;
+                }
+            }
+        }
+        BranchPoint {
+            index: 0,
+            energy: 1.0,
+            energy_slope,
+            period: 1.0,
+            frequency: 1.0,
+            z0: vec![],
+            floquet: floquet::analyse(&m, 1e-4).unwrap(),
+            relative_residual: 0.0,
+            full_period_residual: 0.0,
+            iterations: 0,
+            step: 0.0,
+            unknowns: vec![],
+            tangent: vec![],
+        }
+    }
+
+    /// A Krein quadruplet `(r e^{±iθ}, e^{±iθ}/r)` as two blocks.
+    fn quadruplet(r: f64, theta: f64) -> [(f64, Option<f64>); 2] {
+        [(r, Some(theta)), (1.0 / r, Some(theta))]
+    }
+
+    #[test]
+    fn each_kind_of_event_is_detected_and_its_test_function_changes_sign() {
+        let other = (1.0, Some(2.0));
+        // A pair through +1: e^{±0.01i} → (1.02, 1/1.02).
+        let (a, b) = (
+            point(1.0, &[(1.0, Some(0.01)), other]),
+            point(1.0, &[(1.02, None), other]),
+        );
+        assert_eq!(detect(&a, &b), vec![Crossing::PlusOne]);
+        let fa = test_function(Crossing::PlusOne, &a).unwrap().0;
+        let fb = test_function(Crossing::PlusOne, &b).unwrap().0;
+        assert!(fa * fb < 0.0, "{fa} {fb}");
+        // The same with a fold in the interval: the fold's own crossing.
+        let b_fold = point(-1.0, &[(1.02, None), other]);
+        assert_eq!(detect(&a, &b_fold), vec![Crossing::Fold]);
+        // Through -1.
+        let (a, b) = (
+            point(1.0, &[(1.0, Some(3.1)), other]),
+            point(1.0, &[(-1.05, None), other]),
+        );
+        assert_eq!(detect(&a, &b), vec![Crossing::MinusOne]);
+        let fa = test_function(Crossing::MinusOne, &a).unwrap().0;
+        let fb = test_function(Crossing::MinusOne, &b).unwrap().0;
+        assert!(fa * fb < 0.0, "{fa} {fb}");
+        // A Krein collision: two pairs at angles 0.9 and 1.0 meet and leave as a quadruplet.
+        let a = point(1.0, &[(1.0, Some(0.9)), (1.0, Some(1.0))]);
+        let b = point(1.0, &quadruplet(1.05, 0.95));
+        let found = detect(&a, &b);
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].kind(), EventKind::NeimarkSacker);
+        let fa = test_function(found[0], &a).unwrap().0;
+        let fb = test_function(found[0], &b).unwrap().0;
+        assert!(fa > 0.0 && fb < 0.0, "{fa} {fb}");
+        assert!((fa - (2.0 * 0.9f64.cos() - 2.0 * 1.0f64.cos()).powi(2)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn changes_that_are_no_bifurcation_are_not_events() {
+        // A quadruplet landing on the positive real axis off the circle.
+        let a = point(1.0, &quadruplet(1.3, 0.05));
+        let b = point(1.0, &[(1.3, None), (1.35, None)]);
+        assert!(detect(&a, &b).is_empty());
+        // A pair already beyond +1 at `a` (within the stability tolerance) leaving it further:
+        // its crossing happened before this step.
+        let a = point(1.0, &[(1.00005, None)]);
+        let b = point(1.0, &[(1.01, None)]);
+        assert!(detect(&a, &b).is_empty());
+    }
+
+    /// Twin pairs (double by symmetry) crossing +1 together still change the sign of the
+    /// product test, which counts them once.
+    #[test]
+    fn twin_pairs_crossing_together_change_the_sign() {
+        let other = (1.0, Some(2.0));
+        let a = point(1.0, &[(1.0, Some(0.01)), (1.0, Some(0.01)), other]);
+        let b = point(1.0, &[(1.005, None), (1.005, None), other]);
+        assert_eq!(detect(&a, &b), vec![Crossing::PlusOne]);
+        assert_eq!(multiplicity(Crossing::PlusOne, &b), 2);
+        let fa = test_function(Crossing::PlusOne, &a).unwrap().0;
+        let fb = test_function(Crossing::PlusOne, &b).unwrap().0;
+        assert!(fa * fb < 0.0, "{fa} {fb}");
+    }
+
+    #[test]
+    fn bisection_brackets_the_change_and_never_claims_convergence() {
+        let located = bisect(1.0, 1e-9, 40, |s| Ok((s > 0.3, s))).unwrap();
+        assert!((located.arclength - 0.3).abs() < 1e-9);
+        assert!(located.uncertainty < 1e-9);
+        assert!(!located.converged);
+    }
 
     #[test]
     fn illinois_finds_a_simple_root_fast_and_keeps_the_bracket() {
