@@ -21,7 +21,7 @@ mod tableau;
 
 pub use tableau::{DOP853, DOPRI5, ErrorEstimate, Tableau};
 
-use crate::model::{Block, BlockMut, SecondOrderSystem};
+use crate::model::{Block, SecondOrderSystem};
 
 /// Local error tolerances: a step is accepted when the scaled error norm
 /// `‖err_i / (atol_i + relative·max(|z_i|, |z_new,i|))‖_rms ≤ 1`, with `atol_i = absolute`
@@ -177,8 +177,11 @@ impl Integrator {
                     b.rows
                 )));
             }
+            // Interleaved (state index-major) during the integration: see `variational_field`.
             for c in 0..columns {
-                phi[c * n2..(c + 1) * n2].copy_from_slice(b.col(c));
+                for (i, &v) in b.col(c).iter().enumerate() {
+                    phi[i * columns + c] = v;
+                }
             }
         }
         let ws = &mut self.ws;
@@ -340,9 +343,15 @@ impl Integrator {
                 "integration stopped at t = {t} before T = {duration}"
             )));
         }
+        let mut sensitivity = vec![0.0; n2 * columns];
+        for (i, row) in phi.chunks_exact(columns.max(1)).enumerate().take(n2) {
+            for (c, &v) in row.iter().enumerate() {
+                sensitivity[c * n2 + i] = v;
+            }
+        }
         Ok(Flow {
             z,
-            sensitivity: phi,
+            sensitivity,
             columns,
             steps: accepted,
             stats,
@@ -444,7 +453,9 @@ pub(crate) fn evaluate_field<S: SecondOrderSystem + ?Sized>(
     system.acceleration(&z[..n], dv);
 }
 
-/// `J(z) Φ = [Φ_v; A(x) Φ_x]` for a `2n × k` block.
+/// `J(z) Φ = [Φ_v; A(x) Φ_x]` for a `2n × k` block stored interleaved (row-major: the `k`
+/// directions of state index `i` at `[i * k..(i + 1) * k]`), so that the sparse tangent
+/// combines contiguous rows and `Φ_x`, `Φ_v` are contiguous halves.
 fn variational_field<S: SecondOrderSystem + ?Sized>(
     system: &S,
     z: &[f64],
@@ -452,16 +463,11 @@ fn variational_field<S: SecondOrderSystem + ?Sized>(
     columns: usize,
     out: &mut [f64],
 ) {
-    let n2 = z.len();
-    let n = n2 / 2;
-    for c in 0..columns {
-        out[c * n2..c * n2 + n].copy_from_slice(&phi[c * n2 + n..(c + 1) * n2]);
-    }
-    system.acceleration_tangent(
-        &z[..n],
-        Block::new(phi, n, columns, n2),
-        BlockMut::new(&mut out[n..], n, columns, n2),
-    );
+    let n = z.len() / 2;
+    let half = n * columns;
+    let (dx, dv) = out.split_at_mut(half);
+    dx.copy_from_slice(&phi[half..]);
+    system.acceleration_tangent_interleaved(&z[..n], &phi[..half], columns, dv);
 }
 
 fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {

@@ -58,6 +58,16 @@ impl NonlinearElement for PolynomialSpring {
         }
     }
 
+    fn tangent_matrix(&self, x: &[f64], out: &mut [f64]) -> bool {
+        let p = self.exponent as i32;
+        let kt = self.coefficient * p as f64 * self.stretch(x).powi(p - 1);
+        match self.j {
+            None => out[0] = kt,
+            Some(_) => out[..4].copy_from_slice(&[kt, -kt, -kt, kt]),
+        }
+        true
+    }
+
     fn potential(&self, x: &[f64]) -> f64 {
         let p = self.exponent as i32;
         self.coefficient * self.stretch(x).powi(p + 1) / (p + 1) as f64
@@ -102,6 +112,17 @@ mod tests {
                 for r in 0..3 {
                     let fd = (fp[r] - fm[r]) / (2.0 * h);
                     assert!((fd - out[r]).abs() < 1e-7, "p={p}: {fd} vs {}", out[r]);
+                }
+                // The local tangent matrix on dofs (0, 1) is the same derivative.
+                let mut local = [0.0; 4];
+                assert!(e.tangent_matrix(&x, &mut local));
+                for (a, &row) in e.dofs_used().iter().enumerate() {
+                    let entry = e
+                        .dofs_used()
+                        .iter()
+                        .position(|&d| d == k)
+                        .map_or(0.0, |b| local[b * 2 + a]);
+                    assert_eq!(entry, out[row], "p={p}");
                 }
             }
         }
