@@ -205,11 +205,50 @@ impl Operator {
     }
 }
 
+/// Defines a hot kernel twice: as written (portable SSE2 on x86-64) and compiled with AVX2,
+/// chosen at run time by CPU detection (cached by std). The arithmetic is the same — no FMA
+/// contraction — so results are bitwise identical on either path; only the vector width
+/// changes. Lifetimes in the signature must be elided.
+macro_rules! multiversion {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $body:block) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty),*) {
+            #[inline(always)]
+            fn kernel($($arg: $ty),*) $body
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2")]
+                fn avx2($($arg: $ty),*) {
+                    kernel($($arg),*)
+                }
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2 (checked just above).
+                    return unsafe { avx2($($arg),*) };
+                }
+            }
+            kernel($($arg),*)
+        }
+    };
+}
+pub(crate) use multiversion;
+
 /// `out = A x` for interleaved `n × k` blocks (row `i`'s `k` directions contiguous at
 /// `[i * k..(i + 1) * k]`) and `A` in compressed rows (`row_start`, `col`, `value`): each row
 /// of the result combines whole contiguous rows of `x`, up to four at a time, so the inner
 /// loop runs over the `k` directions without gathers. Never allocates.
 pub fn sparse_times_interleaved(
+    row_start: &[usize],
+    col: &[usize],
+    value: &[f64],
+    x: &[f64],
+    k: usize,
+    out: &mut [f64],
+) {
+    sparse_times_interleaved_kernel(row_start, col, value, x, k, out)
+}
+
+multiversion! {
+fn sparse_times_interleaved_kernel(
     row_start: &[usize],
     col: &[usize],
     value: &[f64],
@@ -255,6 +294,7 @@ pub fn sparse_times_interleaved(
             first = false;
         }
     }
+}
 }
 
 /// `o (+)= Σ_m v[m] x[m]` elementwise, `M` rows in one pass over `o`.

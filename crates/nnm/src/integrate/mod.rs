@@ -541,34 +541,52 @@ impl<'a> Terms<'a> {
     }
 }
 
-/// `out = base + Σ c_t x_t` (`out += Σ c_t x_t` without a base), in chunks small enough for
-/// `out` to stay in L1 while every term streams through once, two terms a pass.
-fn linear_combination(out: &mut [f64], base: Option<&[f64]>, terms: &[(f64, &[f64])]) {
-    const CHUNK: usize = 256;
-    let len = out.len();
-    let mut start = 0;
-    while start < len {
-        let end = (start + CHUNK).min(len);
-        let o = &mut out[start..end];
-        if let Some(b) = base {
-            o.copy_from_slice(&b[start..end]);
-        }
-        let mut pairs = terms.chunks_exact(2);
-        for pair in &mut pairs {
-            let [(a, x), (b, y)] = pair else {
-                unreachable!()
-            };
-            let (x, y) = (&x[start..end], &y[start..end]);
-            for ((o, x), y) in o.iter_mut().zip(x).zip(y) {
-                *o += a * x + b * y;
+crate::linalg::multiversion! {
+    /// `out = base + Σ c_t x_t` (`out += Σ c_t x_t` without a base), in chunks small enough
+    /// for `out` to stay in L1 while every term streams through once, up to four terms a pass.
+    fn linear_combination(out: &mut [f64], base: Option<&[f64]>, terms: &[(f64, &[f64])]) {
+        const CHUNK: usize = 256;
+        let len = out.len();
+        let mut start = 0;
+        while start < len {
+            let end = (start + CHUNK).min(len);
+            let o = &mut out[start..end];
+            if let Some(b) = base {
+                o.copy_from_slice(&b[start..end]);
             }
-        }
-        if let [(a, x)] = pairs.remainder() {
-            for (o, x) in o.iter_mut().zip(&x[start..end]) {
-                *o += a * x;
+            for group in terms.chunks(4) {
+                match *group {
+                    [(a, x)] => accumulate(o, [a], [&x[start..end]]),
+                    [(a, x), (b, y)] => accumulate(o, [a, b], [&x[start..end], &y[start..end]]),
+                    [(a, x), (b, y), (c, z)] => accumulate(
+                        o,
+                        [a, b, c],
+                        [&x[start..end], &y[start..end], &z[start..end]],
+                    ),
+                    [(a, x), (b, y), (c, z), (d, w)] => accumulate(
+                        o,
+                        [a, b, c, d],
+                        [&x[start..end], &y[start..end], &z[start..end], &w[start..end]],
+                    ),
+                    _ => unreachable!("groups of one to four"),
+                }
             }
+            start = end;
         }
-        start = end;
+    }
+}
+
+/// `o += Σ_m c[m] x[m]` elementwise, `M` terms in one pass.
+#[inline(always)]
+fn accumulate<const M: usize>(o: &mut [f64], c: [f64; M], x: [&[f64]; M]) {
+    let len = o.len();
+    let x = x.map(|xm| &xm[..len]);
+    for i in 0..len {
+        let mut s = c[0] * x[0][i];
+        for m in 1..M {
+            s += c[m] * x[m][i];
+        }
+        o[i] += s;
     }
 }
 
