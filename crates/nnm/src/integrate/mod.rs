@@ -179,7 +179,10 @@ impl Integrator {
         }
         let stages = self.tableau.c.len();
         let columns = sensitivity.map_or(0, |b| b.cols);
-        let mut phi = vec![0.0; n2 * columns];
+        // Row stride of the interleaved Φ: padded with zero directions (which stay zero) to a
+        // multiple of four, so that the kernels' four-lane groups leave no scalar remainder.
+        let stride = columns.next_multiple_of(4);
+        let mut phi = vec![0.0; n2 * stride];
         if let Some(b) = sensitivity {
             if b.rows != n2 {
                 return Err(IntegrationError::InvalidInput(format!(
@@ -190,15 +193,15 @@ impl Integrator {
             // Interleaved (state index-major) during the integration (module notes).
             for c in 0..columns {
                 for (i, &v) in b.col(c).iter().enumerate() {
-                    phi[i * columns + c] = v;
+                    phi[i * stride + c] = v;
                 }
             }
         }
         let ws = &mut self.ws;
         ws.k_z.resize(stages * n2, 0.0);
         ws.z_stages.resize(stages * n2, 0.0);
-        ws.k_v.resize(stages * n2 / 2 * columns, 0.0);
-        ws.x_stage.resize(n2 / 2 * columns, 0.0);
+        ws.k_v.resize(stages * n2 / 2 * stride, 0.0);
+        ws.x_stage.resize(n2 / 2 * stride, 0.0);
         ws.z_new.resize(n2, 0.0);
 
         let mut stats = IntegrationStats::default();
@@ -313,15 +316,7 @@ impl Integrator {
                 step_index += 1;
                 h
             };
-            self.finish_step(
-                system,
-                h,
-                columns,
-                n2,
-                &mut phi,
-                first_phi_ready,
-                &mut stats,
-            );
+            self.finish_step(system, h, stride, n2, &mut phi, first_phi_ready, &mut stats);
             t += h;
             accepted.push(h);
             h = next;
@@ -333,7 +328,7 @@ impl Integrator {
                 let (head, tail) = ws.k_z.split_at_mut((stages - 1) * n2);
                 head[..n2].copy_from_slice(&tail[..n2]);
                 if columns > 0 {
-                    let m = n2 / 2 * columns;
+                    let m = n2 / 2 * stride;
                     let (head, tail) = ws.k_v.split_at_mut((stages - 1) * m);
                     head[..m].copy_from_slice(&tail[..m]);
                 }
@@ -354,8 +349,8 @@ impl Integrator {
             )));
         }
         let mut sensitivity = vec![0.0; n2 * columns];
-        for (i, row) in phi.chunks_exact(columns.max(1)).enumerate().take(n2) {
-            for (c, &v) in row.iter().enumerate() {
+        for (i, row) in phi.chunks_exact(stride.max(1)).enumerate().take(n2) {
+            for (c, &v) in row[..columns].iter().enumerate() {
                 sensitivity[c * n2 + i] = v;
             }
         }
@@ -370,24 +365,25 @@ impl Integrator {
 
     /// The sensitivity pass of an accepted step (interleaved `Φ`, module notes): stages
     /// `K_i = A(x_i) Φ_{x,i}` at the stored motion stages, then the update of `Φ_x`, `Φ_v`.
+    /// `stride`: the padded number of directions (row length of the interleaved blocks).
     #[allow(clippy::too_many_arguments)]
     fn finish_step<S: SecondOrderSystem + ?Sized>(
         &mut self,
         system: &S,
         h: f64,
-        columns: usize,
+        stride: usize,
         n2: usize,
         phi: &mut [f64],
         first_phi_ready: bool,
         stats: &mut IntegrationStats,
     ) {
-        if columns == 0 {
+        if stride == 0 {
             return;
         }
         let (tab, ny) = (self.tableau, &self.nystrom);
         let ws = &mut self.ws;
         let n = n2 / 2;
-        let m = n * columns;
+        let m = n * stride;
         let (phi_x, phi_v) = phi.split_at_mut(m);
         let h2 = h * h;
         for i in 0..tab.c.len() {
@@ -409,7 +405,7 @@ impl Integrator {
                 &ws.x_stage
             };
             let x = &ws.z_stages[i * n2..i * n2 + n];
-            system.acceleration_tangent_interleaved(x, x_stage, columns, &mut rest[..m]);
+            system.acceleration_tangent_interleaved(x, x_stage, stride, &mut rest[..m]);
             stats.tangent_evaluations += 1;
         }
         let mut terms = Terms::new();
@@ -556,14 +552,14 @@ crate::linalg::multiversion! {
             }
             for group in terms.chunks(4) {
                 match *group {
-                    [(a, x)] => accumulate(o, [a], [&x[start..end]]),
-                    [(a, x), (b, y)] => accumulate(o, [a, b], [&x[start..end], &y[start..end]]),
-                    [(a, x), (b, y), (c, z)] => accumulate(
+                    [(a, x)] => crate::linalg::combine::<WIDE, true, _>(o, [a], [&x[start..end]]),
+                    [(a, x), (b, y)] => crate::linalg::combine::<WIDE, true, _>(o, [a, b], [&x[start..end], &y[start..end]]),
+                    [(a, x), (b, y), (c, z)] => crate::linalg::combine::<WIDE, true, _>(
                         o,
                         [a, b, c],
                         [&x[start..end], &y[start..end], &z[start..end]],
                     ),
-                    [(a, x), (b, y), (c, z), (d, w)] => accumulate(
+                    [(a, x), (b, y), (c, z), (d, w)] => crate::linalg::combine::<WIDE, true, _>(
                         o,
                         [a, b, c, d],
                         [&x[start..end], &y[start..end], &z[start..end], &w[start..end]],
@@ -573,20 +569,6 @@ crate::linalg::multiversion! {
             }
             start = end;
         }
-    }
-}
-
-/// `o += Σ_m c[m] x[m]` elementwise, `M` terms in one pass.
-#[inline(always)]
-fn accumulate<const M: usize>(o: &mut [f64], c: [f64; M], x: [&[f64]; M]) {
-    let len = o.len();
-    let x = x.map(|xm| &xm[..len]);
-    for i in 0..len {
-        let mut s = c[0] * x[0][i];
-        for m in 1..M {
-            s += c[m] * x[m][i];
-        }
-        o[i] += s;
     }
 }
 
