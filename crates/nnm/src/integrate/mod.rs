@@ -131,6 +131,9 @@ struct Workspace {
     /// The displacement sensitivities of the current stage, `n·k`, interleaved.
     x_stage: Vec<f64>,
     z_new: Vec<f64>,
+    /// The two error combinations of the stages (`2n` each).
+    err_a: Vec<f64>,
+    err_b: Vec<f64>,
 }
 
 const SAFETY: f64 = 0.9;
@@ -262,27 +265,29 @@ impl Integrator {
                 }
                 let (done, rest) = ws.k_z.split_at_mut(i * n2);
                 let zs = &mut ws.z_stages[i * n2..(i + 1) * n2];
-                zs.copy_from_slice(&z);
+                let mut terms = Terms::new();
                 for (j, &a) in tab.a[i].iter().enumerate() {
                     if a != 0.0 {
-                        axpy(h * a, &done[j * n2..(j + 1) * n2], zs);
+                        terms.push(h * a, &done[j * n2..(j + 1) * n2]);
                     }
                 }
+                linear_combination(zs, Some(&z), terms.as_slice());
                 evaluate_field(system, zs, &mut rest[..n2]);
                 stats.rhs_evaluations += 1;
             }
-            ws.z_new.copy_from_slice(&z);
+            let mut terms = Terms::new();
             for (j, &b) in tab.b.iter().enumerate() {
                 if b != 0.0 {
-                    axpy(h * b, &ws.k_z[j * n2..(j + 1) * n2], &mut ws.z_new);
+                    terms.push(h * b, &ws.k_z[j * n2..(j + 1) * n2]);
                 }
             }
+            linear_combination(&mut ws.z_new, Some(&z), terms.as_slice());
             let finite = ws.z_new.iter().all(|v| v.is_finite());
 
             // Step-size control (adaptive mode only): the size of the next step, or a retry.
             let next = if replay.is_none() {
                 let err = if finite {
-                    error_norm(tab, &self.tolerances, h, &z, &ws.z_new, &ws.k_z, n2)
+                    error_norm(tab, &self.tolerances, h, &z, ws)
                 } else {
                     f64::INFINITY
                 };
@@ -513,7 +518,7 @@ impl Nystrom {
 }
 
 /// At most this many terms in one combination (stages + 1).
-const MAX_TERMS: usize = 16;
+const MAX_TERMS: usize = 24;
 
 /// The `(coefficient, block)` terms of one linear combination, on the stack.
 struct Terms<'a> {
@@ -572,51 +577,44 @@ crate::linalg::multiversion! {
     }
 }
 
-fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
-    for (yi, xi) in y.iter_mut().zip(x) {
-        *yi += alpha * xi;
-    }
-}
-
-/// Scaled local error of a step (Hairer's norm), including DOP853's blended estimate.
-fn error_norm(
-    tab: &Tableau,
-    tol: &Tolerances,
-    h: f64,
-    z: &[f64],
-    z_new: &[f64],
-    k: &[f64],
-    n2: usize,
-) -> f64 {
+/// Scaled local error of a step (Hairer's norm), including DOP853's blended estimate. The
+/// error combinations of the stages are formed first, as whole vectors (fused kernel).
+fn error_norm(tab: &Tableau, tol: &Tolerances, h: f64, z: &[f64], ws: &mut Workspace) -> f64 {
+    let n2 = z.len();
+    let (k, z_new) = (&ws.k_z, &ws.z_new);
     let scale = |i: usize| tol.absolute_at(i, n2) + tol.relative * z[i].abs().max(z_new[i].abs());
+    let stage = |j: usize| &k[j * n2..(j + 1) * n2];
+    // Σ_j w_j k_j into `out`.
+    let combine = |out: &mut Vec<f64>, weights: &mut dyn Iterator<Item = (usize, f64)>| {
+        out.clear();
+        out.resize(n2, 0.0);
+        let mut terms = Terms::new();
+        for (j, w) in weights.filter(|&(_, w)| w != 0.0) {
+            terms.push(w, stage(j));
+        }
+        linear_combination(out, None, terms.as_slice());
+    };
     match &tab.error {
         ErrorEstimate::Embedded(e) => {
-            let mut sum = 0.0;
-            for i in 0..n2 {
-                let err: f64 = e
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, w)| **w != 0.0)
-                    .map(|(j, w)| w * k[j * n2 + i])
-                    .sum();
-                sum += (h * err / scale(i)).powi(2);
-            }
+            combine(&mut ws.err_a, &mut e.iter().copied().enumerate());
+            let sum: f64 = (0..n2).map(|i| (h * ws.err_a[i] / scale(i)).powi(2)).sum();
             (sum / n2 as f64).sqrt()
         }
         ErrorEstimate::Dop853 { fifth, third } => {
+            combine(&mut ws.err_a, &mut fifth.iter().copied().enumerate());
+            // The 3rd-order error: the propagated solution's weights minus the 3rd-order ones.
+            let mut weights = tab
+                .b
+                .iter()
+                .copied()
+                .enumerate()
+                .chain(third.iter().map(|&(j, w)| (j, -w)));
+            combine(&mut ws.err_b, &mut weights);
             let (mut e5, mut e3) = (0.0, 0.0);
             for i in 0..n2 {
                 let sk = scale(i);
-                let mut err5 = 0.0;
-                let mut bsum = 0.0;
-                for (j, (w, b)) in fifth.iter().zip(tab.b).enumerate() {
-                    let kj = k[j * n2 + i];
-                    err5 += w * kj;
-                    bsum += b * kj;
-                }
-                let err3 = bsum - third.iter().map(|&(j, w)| w * k[j * n2 + i]).sum::<f64>();
-                e5 += (err5 / sk).powi(2);
-                e3 += (err3 / sk).powi(2);
+                e5 += (ws.err_a[i] / sk).powi(2);
+                e3 += (ws.err_b[i] / sk).powi(2);
             }
             let denominator = if e5 + 0.01 * e3 > 0.0 {
                 e5 + 0.01 * e3
