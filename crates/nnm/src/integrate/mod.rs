@@ -183,8 +183,13 @@ impl Integrator {
         let stages = self.tableau.c.len();
         let columns = sensitivity.map_or(0, |b| b.cols);
         // Row stride of the interleaved Φ: padded with zero directions (which stay zero) to a
-        // multiple of four, so that the kernels' four-lane groups leave no scalar remainder.
-        let stride = columns.next_multiple_of(4);
+        // multiple of four, so that the kernels' four-lane groups leave no scalar remainder;
+        // not below four (one or two directions of a tiny system would do 2-4x the work).
+        let stride = if columns < 4 {
+            columns
+        } else {
+            columns.next_multiple_of(4)
+        };
         let mut phi = vec![0.0; n2 * stride];
         if let Some(b) = sensitivity {
             if b.rows != n2 {
@@ -521,31 +526,57 @@ impl Nystrom {
 const MAX_TERMS: usize = 24;
 
 /// The `(coefficient, block)` terms of one linear combination, on the stack.
+///
+/// Left uninitialised beyond `len`: filling all slots cost ~5% of a small system's
+/// integration (Duffing), where a combination has only a few two-entry terms.
 struct Terms<'a> {
-    terms: [(f64, &'a [f64]); MAX_TERMS],
+    terms: [std::mem::MaybeUninit<(f64, &'a [f64])>; MAX_TERMS],
     len: usize,
 }
 
 impl<'a> Terms<'a> {
+    #[inline]
     fn new() -> Self {
         Self {
-            terms: [(0.0, &[]); MAX_TERMS],
+            terms: [const { std::mem::MaybeUninit::uninit() }; MAX_TERMS],
             len: 0,
         }
     }
+    #[inline]
     fn push(&mut self, coefficient: f64, block: &'a [f64]) {
-        self.terms[self.len] = (coefficient, block);
+        self.terms[self.len].write((coefficient, block));
         self.len += 1;
     }
+    #[inline]
     fn as_slice(&self) -> &[(f64, &'a [f64])] {
-        &self.terms[..self.len]
+        // SAFETY: the first `len` slots were written by `push`; MaybeUninit<T> has T's layout.
+        unsafe { std::slice::from_raw_parts(self.terms.as_ptr().cast(), self.len) }
+    }
+}
+
+/// `out = base + Σ c_t x_t` (`out += Σ c_t x_t` without a base). Short vectors (the motion
+/// of systems with a few dofs) take a plain inlined loop: the kernel's dispatch, chunking and
+/// grouping cost more than their arithmetic there (Duffing: +50% instructions).
+#[inline]
+fn linear_combination(out: &mut [f64], base: Option<&[f64]>, terms: &[(f64, &[f64])]) {
+    const SHORT: usize = 32;
+    if out.len() >= SHORT {
+        return linear_combination_long(out, base, terms);
+    }
+    if let Some(b) = base {
+        out.copy_from_slice(b);
+    }
+    for &(c, x) in terms {
+        for (o, x) in out.iter_mut().zip(x) {
+            *o += c * x;
+        }
     }
 }
 
 crate::linalg::multiversion! {
-    /// `out = base + Σ c_t x_t` (`out += Σ c_t x_t` without a base), in chunks small enough
-    /// for `out` to stay in L1 while every term streams through once, up to four terms a pass.
-    fn linear_combination(out: &mut [f64], base: Option<&[f64]>, terms: &[(f64, &[f64])]) {
+    /// [`linear_combination`] in chunks small enough for `out` to stay in L1 while every term
+    /// streams through once, up to four terms a pass.
+    fn linear_combination_long(out: &mut [f64], base: Option<&[f64]>, terms: &[(f64, &[f64])]) {
         const CHUNK: usize = 256;
         let len = out.len();
         let mut start = 0;
@@ -584,32 +615,39 @@ fn error_norm(tab: &Tableau, tol: &Tolerances, h: f64, z: &[f64], ws: &mut Works
     let (k, z_new) = (&ws.k_z, &ws.z_new);
     let scale = |i: usize| tol.absolute_at(i, n2) + tol.relative * z[i].abs().max(z_new[i].abs());
     let stage = |j: usize| &k[j * n2..(j + 1) * n2];
-    // Σ_j w_j k_j into `out`.
-    let combine = |out: &mut Vec<f64>, weights: &mut dyn Iterator<Item = (usize, f64)>| {
-        out.clear();
-        out.resize(n2, 0.0);
-        let mut terms = Terms::new();
-        for (j, w) in weights.filter(|&(_, w)| w != 0.0) {
+    ws.err_a.resize(n2, 0.0);
+    ws.err_b.resize(n2, 0.0);
+    // Σ_j w_j k_j (non-zero weights only) into `err_a`.
+    let weights = match &tab.error {
+        ErrorEstimate::Embedded(e) => e,
+        ErrorEstimate::Dop853 { fifth, .. } => fifth,
+    };
+    let mut terms = Terms::new();
+    for (j, &w) in weights.iter().enumerate() {
+        if w != 0.0 {
             terms.push(w, stage(j));
         }
-        linear_combination(out, None, terms.as_slice());
-    };
+    }
+    ws.err_a.fill(0.0);
+    linear_combination(&mut ws.err_a, None, terms.as_slice());
     match &tab.error {
-        ErrorEstimate::Embedded(e) => {
-            combine(&mut ws.err_a, &mut e.iter().copied().enumerate());
+        ErrorEstimate::Embedded(_) => {
             let sum: f64 = (0..n2).map(|i| (h * ws.err_a[i] / scale(i)).powi(2)).sum();
             (sum / n2 as f64).sqrt()
         }
-        ErrorEstimate::Dop853 { fifth, third } => {
-            combine(&mut ws.err_a, &mut fifth.iter().copied().enumerate());
+        ErrorEstimate::Dop853 { third, .. } => {
             // The 3rd-order error: the propagated solution's weights minus the 3rd-order ones.
-            let mut weights = tab
-                .b
-                .iter()
-                .copied()
-                .enumerate()
-                .chain(third.iter().map(|&(j, w)| (j, -w)));
-            combine(&mut ws.err_b, &mut weights);
+            let mut terms = Terms::new();
+            for (j, &b) in tab.b.iter().enumerate() {
+                if b != 0.0 {
+                    terms.push(b, stage(j));
+                }
+            }
+            for &(j, w) in third {
+                terms.push(-w, stage(j));
+            }
+            ws.err_b.fill(0.0);
+            linear_combination(&mut ws.err_b, None, terms.as_slice());
             let (mut e5, mut e3) = (0.0, 0.0);
             for i in 0..n2 {
                 let sk = scale(i);

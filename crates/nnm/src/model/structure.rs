@@ -71,6 +71,10 @@ pub struct Structure {
     assembled: Option<AssembledTangent>,
 }
 
+/// Up to this many dofs, a dense `M⁻¹K` (with a diagonal `M`) is still assembled into the
+/// compressed-row tangent.
+const SMALL_DENSE: usize = 8;
+
 /// Compressed rows of `-M⁻¹(K + ∂f_nl/∂x)`: the pattern of `M⁻¹K` joined with the elements'
 /// dofs, the constant part, and where each element's local tangent entries go.
 #[derive(Debug)]
@@ -206,8 +210,13 @@ impl Structure {
             (MassInverse::Dense(inv), minv_k)
         };
         let mass_inverse_stiffness = Operator::new(&minv_k);
+        // Sparse, or so small that compressed rows beat a dense product and its set-up
+        // (Duffing, the 2-dof system).
         let assembled = match (&mass_inverse, &mass_inverse_stiffness) {
             (MassInverse::Diagonal(d), Operator::Sparse { .. }) => {
+                AssembledTangent::new(&minv_k, d, &elements)
+            }
+            (MassInverse::Diagonal(d), Operator::Dense(_)) if n <= SMALL_DENSE => {
                 AssembledTangent::new(&minv_k, d, &elements)
             }
             _ => None,
