@@ -30,8 +30,47 @@ pub trait SecondOrderSystem: Sync {
     /// of the variational equations `Φ' = J Φ` (SPEC §2), applied to the position block of Φ.
     fn acceleration_tangent(&self, x: &[f64], dx: Block<'_>, out: BlockMut<'_>);
 
+    /// The same product on *interleaved* blocks, the integrator's layout: `dx` and `out` are
+    /// `n × k` row-major, direction `c` of dof `i` at `[i * k + c]`, so that a row of a sparse
+    /// operator combines contiguous rows of `dx`. The default transposes to and from
+    /// [`Self::acceleration_tangent`]; override it for speed.
+    fn acceleration_tangent_interleaved(&self, x: &[f64], dx: &[f64], k: usize, out: &mut [f64]) {
+        tangent_through_columns(self, x, dx, k, out);
+    }
+
     /// Total energy `E = ½ vᵀMv + ½ xᵀKx + V_nl(x)` (SPEC §1).
     fn energy(&self, x: &[f64], v: &[f64]) -> f64;
+}
+
+/// [`SecondOrderSystem::acceleration_tangent_interleaved`] through the column-major
+/// [`SecondOrderSystem::acceleration_tangent`] (two transpositions into reused scratch).
+pub fn tangent_through_columns<S: SecondOrderSystem + ?Sized>(
+    system: &S,
+    x: &[f64],
+    dx: &[f64],
+    k: usize,
+    out: &mut [f64],
+) {
+    thread_local! {
+        static COLUMNS: std::cell::RefCell<(Vec<f64>, Vec<f64>)> =
+            const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+    }
+    let n = system.dofs();
+    COLUMNS.with_borrow_mut(|(a, b)| {
+        a.resize(n * k, 0.0);
+        b.resize(n * k, 0.0);
+        for i in 0..n {
+            for c in 0..k {
+                a[c * n + i] = dx[i * k + c];
+            }
+        }
+        system.acceleration_tangent(x, Block::new(a, n, k, n), BlockMut::new(b, n, k, n));
+        for i in 0..n {
+            for c in 0..k {
+                out[i * k + c] = b[c * n + i];
+            }
+        }
+    });
 }
 
 /// One nonlinear restoring force `f_e(x)` with potential `V_e` (`f_e = ∂V_e/∂x`).
@@ -42,6 +81,14 @@ pub trait NonlinearElement: Send + Sync + std::fmt::Debug {
     fn add_force(&self, x: &[f64], f: &mut [f64]);
     /// Adds `∂f_e/∂x(x) · dx[:, c]` to `out[:, c]` for every column.
     fn add_tangent_product(&self, x: &[f64], dx: Block<'_>, out: &mut BlockMut<'_>);
+    /// Optional, for speed: writes the tangent `∂f_e/∂x(x)` restricted to the rows and columns
+    /// [`Self::dofs_used`] (in that order; column-major, `m × m` for `m` dofs) and returns
+    /// `true`. It must then be the whole tangent (zero outside those dofs), and the answer must
+    /// not depend on `x`: a [`Structure`] whose elements all provide it assembles one sparse
+    /// tangent operator per evaluation instead of applying the elements one by one.
+    fn tangent_matrix(&self, _x: &[f64], _out: &mut [f64]) -> bool {
+        false
+    }
     /// The element's potential energy `V_e(x)`.
     fn potential(&self, x: &[f64]) -> f64;
     /// The degrees of freedom the element touches (for validation against the model size).

@@ -66,6 +66,84 @@ pub struct Structure {
     cyclic: Option<CyclicSymmetry>,
     mass_inverse_stiffness: Operator,
     mass_inverse: MassInverse,
+    /// The tangent `-M⁻¹(K + ∂f_nl/∂x)` as one sparse operator refreshed per evaluation, when
+    /// `M` is diagonal, `M⁻¹K` sparse and every element gives its tangent matrix.
+    assembled: Option<AssembledTangent>,
+}
+
+/// Up to this many dofs, a dense `M⁻¹K` (with a diagonal `M`) is still assembled into the
+/// compressed-row tangent.
+const SMALL_DENSE: usize = 8;
+
+/// Compressed rows of `-M⁻¹(K + ∂f_nl/∂x)`: the pattern of `M⁻¹K` joined with the elements'
+/// dofs, the constant part, and where each element's local tangent entries go.
+#[derive(Debug)]
+struct AssembledTangent {
+    row_start: Vec<usize>,
+    col: Vec<usize>,
+    /// `-M⁻¹K` on the pattern (explicit zeros where only elements contribute).
+    base: Vec<f64>,
+    /// Per element: offset into `slots` and its number of dofs `m`.
+    elements: Vec<(usize, usize)>,
+    /// Per local entry `(a, b)` (column-major): its position in the values and `-1/M_aa`.
+    slots: Vec<(usize, f64)>,
+}
+
+impl AssembledTangent {
+    fn new(
+        minv_k: &Mat<f64>,
+        inverse_diagonal: &[f64],
+        elements: &[Box<dyn NonlinearElement>],
+    ) -> Option<Self> {
+        let n = minv_k.nrows();
+        let zero = vec![0.0; n];
+        let mut probe = Vec::new();
+        let mut dofs = Vec::with_capacity(elements.len());
+        for e in elements {
+            let d = e.dofs_used();
+            probe.resize(d.len() * d.len(), 0.0);
+            if !e.tangent_matrix(&zero, &mut probe) {
+                return None;
+            }
+            dofs.push(d);
+        }
+        let mut rows: Vec<Vec<usize>> = (0..n)
+            .map(|i| (0..n).filter(|&j| minv_k[(i, j)] != 0.0).collect())
+            .collect();
+        for d in &dofs {
+            for &a in d {
+                rows[a].extend_from_slice(d);
+            }
+        }
+        let mut row_start = vec![0];
+        let (mut col, mut base) = (Vec::new(), Vec::new());
+        for (i, r) in rows.iter_mut().enumerate() {
+            r.sort_unstable();
+            r.dedup();
+            base.extend(r.iter().map(|&j| -minv_k[(i, j)]));
+            col.extend_from_slice(r);
+            row_start.push(col.len());
+        }
+        let mut slots = Vec::new();
+        let mut offsets = Vec::with_capacity(dofs.len());
+        for d in &dofs {
+            offsets.push((slots.len(), d.len()));
+            for &b in d {
+                for &a in d {
+                    let row = &col[row_start[a]..row_start[a + 1]];
+                    let position = row_start[a] + row.binary_search(&b).expect("in the pattern");
+                    slots.push((position, -inverse_diagonal[a]));
+                }
+            }
+        }
+        Some(Self {
+            row_start,
+            col,
+            base,
+            elements: offsets,
+            slots,
+        })
+    }
 }
 
 #[derive(Debug)]
@@ -78,6 +156,8 @@ thread_local! {
     /// Scratch for the dense-mass path only (consistent-mass models): `M⁻¹` must be applied
     /// to the nonlinear forces after they are summed.
     static SCRATCH: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+    /// The assembled tangent's values and one element's local tangent matrix.
+    static ASSEMBLY: RefCell<(Vec<f64>, Vec<f64>)> = const { RefCell::new((Vec::new(), Vec::new())) };
 }
 
 impl Structure {
@@ -129,13 +209,26 @@ impl Structure {
             let minv_k = linalg::product(inv.as_ref(), stiffness.as_ref());
             (MassInverse::Dense(inv), minv_k)
         };
+        let mass_inverse_stiffness = Operator::new(&minv_k);
+        // Sparse, or so small that compressed rows beat a dense product and its set-up
+        // (Duffing, the 2-dof system).
+        let assembled = match (&mass_inverse, &mass_inverse_stiffness) {
+            (MassInverse::Diagonal(d), Operator::Sparse { .. }) => {
+                AssembledTangent::new(&minv_k, d, &elements)
+            }
+            (MassInverse::Diagonal(d), Operator::Dense(_)) if n <= SMALL_DENSE => {
+                AssembledTangent::new(&minv_k, d, &elements)
+            }
+            _ => None,
+        };
         Ok(Self {
             mass,
             stiffness,
             elements,
             cyclic: None,
-            mass_inverse_stiffness: Operator::new(&minv_k),
+            mass_inverse_stiffness,
             mass_inverse,
+            assembled,
         })
     }
 
@@ -271,6 +364,25 @@ impl SecondOrderSystem for Structure {
             .apply_add(-1.0, dx.data, dx.stride, cols, out.data, out.stride);
     }
 
+    fn acceleration_tangent_interleaved(&self, x: &[f64], dx: &[f64], k: usize, out: &mut [f64]) {
+        let Some(t) = &self.assembled else {
+            return super::tangent_through_columns(self, x, dx, k, out);
+        };
+        ASSEMBLY.with_borrow_mut(|(values, local)| {
+            values.clear();
+            values.extend_from_slice(&t.base);
+            for (e, &(offset, m)) in self.elements.iter().zip(&t.elements) {
+                local.resize(m * m, 0.0);
+                e.tangent_matrix(x, local);
+                for (&(position, factor), &v) in t.slots[offset..offset + m * m].iter().zip(&*local)
+                {
+                    values[position] += factor * v;
+                }
+            }
+            linalg::sparse_times_interleaved(&t.row_start, &t.col, values, dx, k, out);
+        });
+    }
+
     fn energy(&self, x: &[f64], v: &[f64]) -> f64 {
         let n = self.dofs();
         let mut quadratic = 0.0;
@@ -326,6 +438,71 @@ mod tests {
             for r in 0..3 {
                 let fd = (ap[r] - am[r]) / (2.0 * h);
                 assert!((fd - tangent[c * 3 + r]).abs() < 1e-8);
+            }
+        }
+    }
+
+    /// The interleaved tangent (assembled sparse operator for the bladed disk, transposition
+    /// fallback for the dense mass and for an element without a tangent matrix) equals the
+    /// column-major one.
+    #[test]
+    fn interleaved_tangent_matches_column_major() {
+        #[derive(Debug)]
+        struct Opaque(PolynomialSpring);
+        impl NonlinearElement for Opaque {
+            fn add_force(&self, x: &[f64], f: &mut [f64]) {
+                self.0.add_force(x, f)
+            }
+            fn add_tangent_product(&self, x: &[f64], dx: Block<'_>, out: &mut BlockMut<'_>) {
+                self.0.add_tangent_product(x, dx, out)
+            }
+            fn potential(&self, x: &[f64]) -> f64 {
+                self.0.potential(x)
+            }
+            fn dofs_used(&self) -> Vec<usize> {
+                self.0.dofs_used()
+            }
+        }
+        // 12 sectors: sparse enough for compressed rows (≤ 4 non-zeros in rows of 24).
+        let disk = crate::model::BladedDisk {
+            sectors: 12,
+            ..Default::default()
+        }
+        .build()
+        .unwrap();
+        assert!(disk.assembled.is_some());
+        let k3 = Mat::from_fn(3, 3, |i, j| if i == j { 2.0 } else { 0.0 });
+        let opaque = Structure::new(
+            Mat::<f64>::identity(3, 3),
+            k3,
+            vec![
+                Box::new(Opaque(PolynomialSpring::cubic(0, Some(2), 0.7))),
+                Box::new(PolynomialSpring::new(1, None, 0.3, 2)),
+            ],
+        )
+        .unwrap();
+        assert!(opaque.assembled.is_none());
+        let dense = consistent_mass_model();
+        let systems: [&dyn SecondOrderSystem; 3] = [&disk, &dense, &opaque];
+        for s in systems {
+            let n = s.dofs();
+            let k = 3;
+            let x: Vec<f64> = (0..n).map(|i| (1.3 * i as f64 + 0.4).sin()).collect();
+            let dx: Vec<f64> = (0..n * k).map(|i| (0.7 * i as f64).cos()).collect(); // col-major
+            let mut expected = vec![0.0; n * k];
+            s.acceleration_tangent(
+                &x,
+                Block::new(&dx, n, k, n),
+                BlockMut::new(&mut expected, n, k, n),
+            );
+            let interleaved: Vec<f64> = (0..n * k).map(|p| dx[(p % k) * n + p / k]).collect();
+            let mut out = vec![f64::NAN; n * k];
+            s.acceleration_tangent_interleaved(&x, &interleaved, k, &mut out);
+            for i in 0..n {
+                for c in 0..k {
+                    let (a, b) = (out[i * k + c], expected[c * n + i]);
+                    assert!((a - b).abs() < 1e-14 * (1.0 + b.abs()), "{a} vs {b}");
+                }
             }
         }
     }
