@@ -110,8 +110,20 @@ pub fn bench(repeat: usize) -> Result<()> {
     let disk = BladedDisk::default().build()?;
     let start_1_5 = start(&disk, "1,5")?;
     let mut rows = shooting_rows(&disk, &start_1_5, repeat.max(1))?;
+    // The continuation itself (as the peers do it: no bifurcation location), then the same
+    // branch with its events located (two branch points on the way to +10%).
     rows.extend(branch_rows(
         "(1,5) backbone to +10%",
+        &disk,
+        &start_1_5,
+        &Settings {
+            frequency_shift_max: 0.10,
+            events: false,
+            ..Settings::default()
+        },
+    )?);
+    rows.extend(branch_rows(
+        "(1,5) to +10%, events located",
         &disk,
         &start_1_5,
         &Settings {
@@ -127,6 +139,7 @@ pub fn bench(repeat: usize) -> Result<()> {
         &Settings {
             tolerance: 1e-10,
             frequency_shift_max: 0.5,
+            events: false,
             ..Settings::default()
         },
     )?);
@@ -137,6 +150,7 @@ pub fn bench(repeat: usize) -> Result<()> {
         &start(&two, "0")?,
         &Settings {
             energy_max: 100.0,
+            events: false,
             ..Settings::default()
         },
     )?);
