@@ -838,8 +838,11 @@ const EVENT_ARCLENGTH_TOLERANCE: f64 = 1e-8;
 const EVENT_TRIAL_TOLERANCE_FACTOR: f64 = 1e-2;
 /// Trials allowed to the secant location (it converges in 5–12 on a simple root).
 const SECANT_TRIALS: usize = 20;
-/// Trials allowed to the bisection fallback (about 30 halvings reach the tolerance).
-const BISECTION_TRIALS: usize = 30;
+/// Relative arclength bracket to which an event without a usable test function is placed by
+/// bisection (about 18 halvings of a largest step).
+const EVENT_BRACKET_TOLERANCE: f64 = 1e-6;
+/// Trials allowed to the bisection fallback.
+const BISECTION_TRIALS: usize = 24;
 
 /// Detects the events between two consecutive points and locates each one: every trial is a
 /// point at arclength `s` from `previous`, corrected on the hyperplane
@@ -859,7 +862,8 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
         .zip(u1.iter().zip(u0))
         .map(|(t, (a, b))| t * (a - b))
         .sum();
-    let tolerance = EVENT_ARCLENGTH_TOLERANCE * amplitude_norm(u0);
+    let q = amplitude_norm(u0);
+    let tolerance = EVENT_ARCLENGTH_TOLERANCE * q;
     // Trial points are converged further than branch points: near a branch point the
     // corrector's Jacobian is nearly singular, and a residual at the continuation tolerance
     // leaves an error along the null direction that shifts the test function (seen as a
@@ -915,7 +919,8 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
             }
             // The counts changed but the test function does not bracket a zero (e.g. two pairs
             // crossing in one interval): bisect on which side's signature a trial shares.
-            _ => bifurcation::bisect(h, tolerance, BISECTION_TRIALS, |s| {
+            // Placed, not located: a coarser bracket is enough.
+            _ => bifurcation::bisect(h, EVENT_BRACKET_TOLERANCE * q, BISECTION_TRIALS, |s| {
                 let p = trial_point(s, true)?;
                 let past = bifurcation::detect(previous, &p)
                     .iter()

@@ -171,21 +171,33 @@ pub(crate) fn detect(a: &BranchPoint, b: &BranchPoint) -> Vec<Crossing> {
         found.push(Crossing::MinusOne);
     }
     if on_circle_changed && count(fa, PairKind::Complex) != count(fb, PairKind::Complex) {
-        // The quadruplet exists on the side with more complex pairs; its freshest member (the
-        // one nearest the circle) locates the collision.
-        let side = if count(fa, PairKind::Complex) > count(fb, PairKind::Complex) {
-            fa
+        // The quadruplet exists on the side with more complex pairs: the new one is the
+        // complex invariant farthest from every complex invariant of the other side.
+        let (side, other) = if count(fa, PairKind::Complex) > count(fb, PairKind::Complex) {
+            (fa, fb)
         } else {
-            fb
+            (fb, fa)
         };
         let complex = || side.pairs.iter().filter(|p| p.kind == PairKind::Complex);
-        if let Some(pair) = complex().min_by(|x, y| x.trace().1.abs().total_cmp(&y.trace().1.abs()))
+        let novelty = |s: Complex| {
+            other
+                .pairs
+                .iter()
+                .filter(|p| p.kind == PairKind::Complex)
+                .map(|p| {
+                    let t = p.trace();
+                    (t.0 - s.0).hypot(t.1.abs() - s.1.abs())
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        if let Some(pair) =
+            complex().max_by(|x, y| novelty(x.trace()).total_cmp(&novelty(y.trace())))
         {
             let sigma = pair.trace();
             let count = complex()
                 .filter(|p| {
                     let s = p.trace();
-                    (s.0 - sigma.0).hypot(s.1.abs() - sigma.1.abs()) < 1e-6
+                    (s.0 - sigma.0).hypot(s.1.abs() - sigma.1.abs()) < 1e-4
                 })
                 .count();
             found.push(Crossing::Krein {
