@@ -778,11 +778,17 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
     // sit near +1).
     let flow_direction = shooting.modal_coordinates(&shooting.field(&evaluation.z0));
     let family_direction = shooting.modal_coordinates(&shooting.initial_state(tangent));
-    let floquet = floquet::analyse_deflated(
-        &monodromy,
-        [&flow_direction, &family_direction],
-        settings.stability_tolerance,
-    )
+    let directions = [flow_direction.as_slice(), family_direction.as_slice()];
+    let floquet = match shooting.unknown_block() {
+        // A symmetry class: its block and the rest are analysed apart.
+        Some(class) => floquet::analyse_deflated_split(
+            &monodromy,
+            directions,
+            &class,
+            settings.stability_tolerance,
+        ),
+        None => floquet::analyse_deflated(&monodromy, directions, settings.stability_tolerance),
+    }
     .map_err(|e| e.to_string())?;
     let energy = shooting.energy(&evaluation.z0);
     if !energy.is_finite() {

@@ -492,6 +492,14 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         g
     }
 
+    /// Coordinates of [`Shooting::monodromy`] spanned by the unknowns' modes (displacements
+    /// and velocities), when they are fewer than all: on a model whose mirror symmetry
+    /// restricted the unknowns to one class, the monodromy leaves this block and its
+    /// complement invariant.
+    pub fn unknown_block(&self) -> Option<Vec<usize>> {
+        (self.r_u < self.r).then(|| (0..self.r_u).chain(self.r..self.r + self.r_u).collect())
+    }
+
     /// Whether the problem is shot over half a period.
     pub fn half_period(&self) -> bool {
         self.half_period
