@@ -20,6 +20,8 @@ pub enum LinalgError {
     NotPositiveDefinite,
     #[error("eigenvalue iteration did not converge")]
     NoConvergence,
+    #[error("the matrix has non-finite entries")]
+    NonFinite,
 }
 
 /// Borrowed column-major view of a contiguous slice: `rows × cols`, column stride `stride`.
@@ -90,6 +92,9 @@ pub fn symmetric_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Linal
 
 /// Eigenvalues of a general real matrix.
 pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<Complex>, LinalgError> {
+    if !(0..a.ncols()).all(|j| (0..a.nrows()).all(|i| a[(i, j)].is_finite())) {
+        return Err(LinalgError::NonFinite);
+    }
     let values = a.eigenvalues().map_err(|_| LinalgError::NoConvergence)?;
     Ok(values.iter().map(|z| (z.re, z.im)).collect())
 }
