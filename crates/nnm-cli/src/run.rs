@@ -331,6 +331,7 @@ pub fn make_start(
                 event,
                 &job.settings,
                 SWITCH_AMPLITUDE,
+                from.direction,
             )
             .with_context(|| {
                 format!("cannot switch at event {} of `{}`", from.event, from.branch)
@@ -339,6 +340,7 @@ pub fn make_start(
             info.switched_from = Some(SwitchedFrom {
                 branch: from.branch.clone(),
                 event: from.event,
+                direction: from.direction,
                 kind: event.kind.name().into(),
                 phase: phase_name(phase).into(),
             });

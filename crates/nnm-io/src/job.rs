@@ -92,6 +92,9 @@ pub struct BranchJob {
 pub struct EventStart {
     pub branch: String,
     pub event: usize,
+    /// Which new null direction to follow at a degenerate event (0-based, default 0).
+    #[serde(default)]
+    pub direction: usize,
 }
 
 #[derive(Debug, Deserialize)]

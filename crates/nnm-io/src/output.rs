@@ -88,6 +88,8 @@ pub struct SwitchedFrom {
     pub branch: String,
     /// Index of the event in the parent's `<name>.events.csv`.
     pub event: usize,
+    /// Which new null direction was followed (0 unless the event is degenerate).
+    pub direction: usize,
     /// The event's type (`branch-point`, `period-doubling`).
     #[serde(rename = "type")]
     pub kind: String,

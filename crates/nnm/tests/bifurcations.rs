@@ -171,7 +171,7 @@ fn half_wave_asymmetry(structure: &Structure, z0: &[f64], period: f64) -> f64 {
 fn switched_branch_is_a_new_family() {
     let (structure, start, settings, parent) = in_phase(0.25);
     let event = of_kind(&parent, EventKind::BranchPoint)[0];
-    let switch = switch_branch(&structure, &start, event, &settings, 0.05).unwrap();
+    let switch = switch_branch(&structure, &start, event, &settings, 0.05, 0).unwrap();
     eprintln!(
         "switch: singular values {:?}, phase {:?}",
         switch.singular_values, switch.start.phase
@@ -362,7 +362,7 @@ fn period_doubling_is_located_and_switched() {
     );
     assert!(offset < 1e-6, "{offset:.1e}");
 
-    let switch = switch_branch(&structure, &start, a, &settings, 0.05).unwrap();
+    let switch = switch_branch(&structure, &start, a, &settings, 0.05, 0).unwrap();
     let child = branch(
         &structure,
         &switch.start,

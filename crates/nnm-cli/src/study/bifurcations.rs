@@ -186,8 +186,15 @@ pub(super) fn bifurcations(
         return Ok(());
     };
     let parent_start = parent.start.as_ref().context("the (1,5) start")?;
-    let switch = switch_branch(structure, parent_start, event, settings, SWITCH_AMPLITUDE)
-        .context("switching at the (1,5) branch point")?;
+    let switch = switch_branch(
+        structure,
+        parent_start,
+        event,
+        settings,
+        SWITCH_AMPLITUDE,
+        0,
+    )
+    .context("switching at the (1,5) branch point")?;
     let job = BranchJob {
         name: "mode-1-5-switched".into(),
         mode: String::new(),
@@ -209,6 +216,7 @@ pub(super) fn bifurcations(
     info.switched_from = Some(SwitchedFrom {
         branch: parent.info.name.clone(),
         event: k,
+        direction: 0,
         kind: event.kind.name().into(),
         phase: phase_name(switch.start.phase.unwrap_or(settings.phase)).into(),
     });

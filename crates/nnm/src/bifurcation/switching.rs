@@ -47,6 +47,8 @@ pub enum SwitchError {
          may not be located precisely enough, or the new family lies outside the unknowns"
     )]
     NoNullDirection { kind: &'static str, values: String },
+    #[error("direction {asked} asked, but the event has {available} new null direction(s) (0 to {})", available - 1)]
+    NoSuchDirection { asked: usize, available: usize },
     #[error("the shooting problem could not be evaluated at the event: {0}")]
     Evaluation(String),
 }
@@ -68,13 +70,17 @@ pub struct Switch {
 const NULL_THRESHOLD: f64 = 1e-4;
 
 /// The start of the family that crosses `parent`'s branch at `event`. `amplitude` is the
-/// offset `ε` along the new direction, relative to the event's amplitude `‖q*‖`.
+/// offset `ε` along the new direction, relative to the event's amplitude `‖q*‖`. At a
+/// degenerate event (several null directions beside the parent's tangent, e.g. where a
+/// symmetry doubles the critical pair) `direction` picks one (0-based, in the order of the
+/// singular values); each may lead to a different family.
 pub fn switch_branch<S: SecondOrderSystem + ?Sized>(
     system: &S,
     parent: &Start,
     event: &Event,
     settings: &Settings,
     amplitude: f64,
+    direction: usize,
 ) -> Result<Switch, SwitchError> {
     let multiple = match event.kind {
         EventKind::BranchPoint => 1.0,
@@ -146,21 +152,34 @@ pub fn switch_branch<S: SecondOrderSystem + ?Sized>(
     let mut null: Vec<Vec<f64>> = (0..null_count).map(column).collect();
     // Gram–Schmidt with the parent tangent first: what is left spans the new directions; the
     // first of them (smallest singular value) is taken.
-    let mut phi = None;
+    let mut new_directions: Vec<Vec<f64>> = Vec::new();
     for v in null.iter_mut() {
-        let c = linalg::dot(&tangent, v);
-        v.iter_mut().zip(&tangent).for_each(|(x, t)| *x -= c * t);
+        for _ in 0..2 {
+            for d in std::iter::once(&tangent).chain(&new_directions) {
+                let c = linalg::dot(d, v);
+                v.iter_mut().zip(d).for_each(|(x, t)| *x -= c * t);
+            }
+        }
         let n = linalg::norm(v);
         if n > 0.5 {
             v.iter_mut().for_each(|x| *x /= n);
-            phi = Some(v.clone());
-            break;
+            new_directions.push(v.clone());
         }
     }
-    let phi = phi.ok_or_else(|| SwitchError::NoNullDirection {
-        kind: event.kind.name(),
-        values: shown.join(", "),
-    })?;
+    if new_directions.is_empty() {
+        return Err(SwitchError::NoNullDirection {
+            kind: event.kind.name(),
+            values: shown.join(", "),
+        });
+    }
+    let available = new_directions.len();
+    let phi = new_directions
+        .into_iter()
+        .nth(direction)
+        .ok_or(SwitchError::NoSuchDirection {
+            asked: direction,
+            available,
+        })?;
     let q_star = linalg::norm(&u_star[..m - 1]);
     let epsilon = amplitude * q_star;
     let offset = shooting.initial_state(&phi);
