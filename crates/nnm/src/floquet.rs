@@ -125,7 +125,8 @@ pub fn analyse_deflated(
     let mut y = d2.to_vec();
     reflect_vector(&v1, &mut y);
     let rest = linalg::norm(&y[1..]);
-    if !(rest > 1e-8 * linalg::norm(d2)) {
+    // Also true for NaN: a direction that is not usable falls back to the plain analysis.
+    if rest.is_nan() || rest <= 1e-8 * linalg::norm(d2) {
         return analyse(monodromy, tolerance);
     }
     let Some(v2) = reflector(&y, 1) else {
@@ -173,7 +174,8 @@ pub fn analyse_deflated_split(
     };
     if class.len() < 2
         || rest.is_empty()
-        || !(coupling <= 1e-7 * largest)
+        || coupling.is_nan()
+        || coupling > 1e-7 * largest
         || directions.iter().any(|d| outside(d))
     {
         return analyse_deflated(monodromy, directions, tolerance);
@@ -203,7 +205,7 @@ pub fn analyse_deflated_split(
 /// `e_start`; `None` when `x[start..]` vanishes.
 fn reflector(x: &[f64], start: usize) -> Option<Vec<f64>> {
     let tail = linalg::norm(&x[start..]);
-    if !(tail > 0.0) || !tail.is_finite() {
+    if tail <= 0.0 || !tail.is_finite() {
         return None;
     }
     let mut v = vec![0.0; x.len()];

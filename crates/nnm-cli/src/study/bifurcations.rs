@@ -346,7 +346,6 @@ pub(super) fn bifurcations(
             cos.frequency * 0.995,
             cos.frequency * (1.0 + SWITCHED_SHIFT + 0.02),
         )),
-        ..Default::default()
     }
     .write(&out.join("bifurcations"))?;
     report.figure(
