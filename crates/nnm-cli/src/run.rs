@@ -509,6 +509,18 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F>
     }
 }
 
+/// Events as labelled dots on a frequency–energy plot: F fold, BP branch point, PD period
+/// doubling, NS Krein collision.
+pub fn event_markers<'a>(events: impl Iterator<Item = &'a Event>) -> Vec<Marker> {
+    events
+        .map(|e| Marker {
+            x: e.point.energy,
+            y: e.point.frequency,
+            label: e.kind.abbreviation().into(),
+        })
+        .collect()
+}
+
 /// One frequency–energy plot of every branch that has points: `<stem>.png` and `<stem>.svg`.
 pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
     let series: Vec<Series> = outcomes
@@ -534,17 +546,12 @@ pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
     if series.is_empty() {
         return Ok(());
     }
-    // Events as labelled dots: F fold, BP branch point, PD period doubling, NS Krein collision.
-    let markers = outcomes
-        .iter()
-        .filter_map(|o| o.result.as_ref().ok())
-        .flat_map(|branch| &branch.events)
-        .map(|e| Marker {
-            x: e.point.energy,
-            y: e.point.frequency,
-            label: e.kind.abbreviation().into(),
-        })
-        .collect();
+    let markers = event_markers(
+        outcomes
+            .iter()
+            .filter_map(|o| o.result.as_ref().ok())
+            .flat_map(|branch| &branch.events),
+    );
     FrequencyEnergyPlot {
         title: title.into(),
         series,

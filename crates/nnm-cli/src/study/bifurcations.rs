@@ -8,17 +8,17 @@ use std::sync::Mutex;
 
 use anyhow::{Context, Result, anyhow};
 use nnm::analysis::sample_motion;
-use nnm::bifurcation::{Event, EventKind, switch_branch};
+use nnm::bifurcation::{EventKind, switch_branch};
 use nnm::continuation::{Branch, Settings};
 use nnm::linalg;
 use nnm::model::{SecondOrderSystem, Structure};
 use nnm::modes::{LinearMode, StandingWave, find_mode};
 use nnm_io::job::BranchJob;
 use nnm_io::output::SwitchedFrom;
-use nnm_plot::{FrequencyEnergyPlot, Marker};
+use nnm_plot::FrequencyEnergyPlot;
 
 use super::{Report, series_of};
-use crate::run::{Outcome, SWITCH_AMPLITUDE, compute_branch, phase_name};
+use crate::run::{Outcome, SWITCH_AMPLITUDE, compute_branch, event_markers, phase_name};
 
 /// How far the switched family is followed (relative frequency rise).
 const SWITCHED_SHIFT: f64 = 0.06;
@@ -314,17 +314,13 @@ pub(super) fn bifurcations(
         )
     });
     // The figure: (1,5), the switched family, the events as markers.
-    let markers: Vec<Marker> = branch
-        .events
-        .iter()
-        .chain(&switched.events)
-        .filter(|e: &&Event| e.point.frequency < cos.frequency * (1.0 + SWITCHED_SHIFT + 0.01))
-        .map(|e| Marker {
-            x: e.point.energy,
-            y: e.point.frequency,
-            label: e.kind.abbreviation().into(),
-        })
-        .collect();
+    let markers = event_markers(
+        branch
+            .events
+            .iter()
+            .chain(&switched.events)
+            .filter(|e| e.point.frequency < cos.frequency * (1.0 + SWITCHED_SHIFT + 0.01)),
+    );
     FrequencyEnergyPlot {
         title: "(1,5): backbone, branch points and the switched family".into(),
         series: vec![
