@@ -17,7 +17,7 @@
 
 use std::ops::ControlFlow;
 
-use crate::bifurcation::{self, Event};
+use crate::bifurcation::{self, Crossing, Event};
 use crate::floquet::{self, DEFAULT_STABILITY_TOLERANCE, Floquet};
 use crate::integrate::{DOP853, IntegrationError, Tableau};
 use crate::linalg::{self, Mat};
@@ -842,6 +842,8 @@ fn energy_slope<S: SecondOrderSystem + ?Sized>(
 const EVENT_ARCLENGTH_TOLERANCE: f64 = 1e-8;
 /// Trial points of a location are converged to this fraction of the continuation tolerance.
 const EVENT_TRIAL_TOLERANCE_FACTOR: f64 = 1e-2;
+/// How many times a step is halved to separate crossings that no test function brackets.
+const REFINE_DEPTH: usize = 2;
 /// Trials allowed to the secant location (it converges in 5–12 on a simple root).
 const SECANT_TRIALS: usize = 20;
 /// Relative arclength bracket to which an event without a usable test function is placed by
@@ -879,56 +881,81 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
         tolerance: EVENT_TRIAL_TOLERANCE_FACTOR * settings.tolerance,
         ..settings.clone()
     };
-    let mut located = Vec::new();
-    for crossing in bifurcation::detect(previous, next) {
-        let mut newton = 0;
-        // Solutions found so far on this step, by arclength: each trial starts from the line
-        // through the two nearest, so that late trials start within the corrector's own
-        // accuracy. (From the chord between the step's ends, a trial near a branch point of
-        // the full-period problem can converge onto the crossing family instead.)
-        let mut known: Vec<(f64, Vec<f64>)> = vec![(0.0, u0.clone()), (h, u1.clone())];
-        let mut trial_point = |s: f64, with_floquet: bool| -> Result<BranchPoint, String> {
-            known.sort_by(|a, b| (a.0 - s).abs().total_cmp(&(b.0 - s).abs()));
-            let ((sa, ua), (sb, ub)) = (&known[0], &known[1]);
-            let w = if sb != sa { (s - sa) / (sb - sa) } else { 0.0 };
-            let guess: Vec<f64> = ua.iter().zip(ub).map(|(a, b)| a + w * (b - a)).collect();
-            let anchor: Vec<f64> = u0.iter().zip(t0).map(|(a, t)| a + s * t).collect();
-            let mut solve = |settings: &Settings| {
-                correct(
-                    shooting,
-                    &guess,
-                    t0,
-                    &anchor,
-                    &previous.z0,
-                    settings,
-                    &mut newton,
-                )
-            };
-            let corrected = solve(&tight).or_else(|_| solve(settings))?;
-            known.push((s, corrected.unknowns.clone()));
-            let t = tangent(&corrected.evaluation, t0);
-            if with_floquet {
-                make_point(shooting, &corrected, &t, previous.index, s, settings)
-            } else {
-                Ok(light_point(shooting, &corrected, &t, previous.index, s))
-            }
+    let mut newton = 0;
+    // Solutions found so far on this step, by arclength: each trial starts from the line
+    // through the two nearest, so that late trials start within the corrector's own
+    // accuracy. (From the chord between the step's ends, a trial near a branch point of the
+    // full-period problem can converge onto the crossing family instead.)
+    let mut known: Vec<(f64, Vec<f64>)> = vec![(0.0, u0.clone()), (h, u1.clone())];
+    let mut trial_point = |s: f64, with_floquet: bool| -> Result<BranchPoint, String> {
+        known.sort_by(|a, b| (a.0 - s).abs().total_cmp(&(b.0 - s).abs()));
+        let ((sa, ua), (sb, ub)) = (&known[0], &known[1]);
+        let w = if sb != sa { (s - sa) / (sb - sa) } else { 0.0 };
+        let guess: Vec<f64> = ua.iter().zip(ub).map(|(a, b)| a + w * (b - a)).collect();
+        let anchor: Vec<f64> = u0.iter().zip(t0).map(|(a, t)| a + s * t).collect();
+        let mut solve = |settings: &Settings| {
+            correct(
+                shooting,
+                &guess,
+                t0,
+                &anchor,
+                &previous.z0,
+                settings,
+                &mut newton,
+            )
         };
+        let corrected = solve(&tight).or_else(|_| solve(settings))?;
+        known.push((s, corrected.unknowns.clone()));
+        let t = tangent(&corrected.evaluation, t0);
+        if with_floquet {
+            make_point(shooting, &corrected, &t, previous.index, s, settings)
+        } else {
+            Ok(light_point(shooting, &corrected, &t, previous.index, s))
+        }
+    };
+    let brackets = |crossing: Crossing, a: &BranchPoint, b: &BranchPoint| {
         let value = |p: &BranchPoint| bifurcation::test_function(crossing, p).map(|(f, _)| f);
-        let ends = (value(previous), value(next));
-        let result = match ends {
+        matches!((value(a), value(b)), (Some(fa), Some(fb)) if fa * fb < 0.0)
+    };
+    // Steps in which some change has no test function bracketing it (typically several pairs
+    // crossing in one step) are halved, up to REFINE_DEPTH times, so that each crossing gets
+    // a sub-interval of its own.
+    type End = (f64, BranchPoint);
+    let mut pending: Vec<(End, End, usize)> = vec![((0.0, previous.clone()), (h, next.clone()), 0)];
+    let mut work: Vec<(End, End, Crossing)> = Vec::new();
+    let mut refinements = 0;
+    while let Some((a, b, depth)) = pending.pop() {
+        let crossings = bifurcation::detect(&a.1, &b.1);
+        let unbracketed = crossings.iter().any(|&c| !brackets(c, &a.1, &b.1));
+        if unbracketed && depth < REFINE_DEPTH {
+            let mid = 0.5 * (a.0 + b.0);
+            if let Ok(m) = trial_point(mid, true) {
+                refinements += 1;
+                pending.push(((mid, m.clone()), b, depth + 1));
+                pending.push((a, (mid, m), depth + 1));
+                continue;
+            }
+        }
+        work.extend(crossings.into_iter().map(|c| (a.clone(), b.clone(), c)));
+    }
+    let mut located = Vec::new();
+    for ((sa, a), (sb, b), crossing) in work {
+        let value = |p: &BranchPoint| bifurcation::test_function(crossing, p).map(|(f, _)| f);
+        let width = sb - sa;
+        let result = match (value(&a), value(&b)) {
             (Some(f0), Some(f1)) if f0 * f1 < 0.0 => {
-                bifurcation::illinois(h, f0, f1, tolerance, SECANT_TRIALS, |s| {
-                    let p = trial_point(s, crossing.needs_floquet())?;
+                bifurcation::illinois(width, f0, f1, tolerance, SECANT_TRIALS, |x| {
+                    let p = trial_point(sa + x, crossing.needs_floquet())?;
                     let f = value(&p).ok_or("the critical pair vanished")?;
                     Ok((f, p))
                 })
             }
-            // The counts changed but the test function does not bracket a zero (e.g. two pairs
-            // crossing in one interval): bisect on which side's signature a trial shares.
-            // Placed, not located: a coarser bracket is enough.
-            _ => bifurcation::bisect(h, EVENT_BRACKET_TOLERANCE * q, BISECTION_TRIALS, |s| {
-                let p = trial_point(s, true)?;
-                let past = bifurcation::detect(previous, &p)
+            // The counts changed but no test function brackets a zero even after refinement:
+            // bisect on which side's pattern a trial shares. Placed, not located: a coarser
+            // bracket is enough.
+            _ => bifurcation::bisect(width, EVENT_BRACKET_TOLERANCE * q, BISECTION_TRIALS, |x| {
+                let p = trial_point(sa + x, true)?;
+                let past = bifurcation::detect(&a, &p)
                     .iter()
                     .any(|c| c.kind() == crossing.kind());
                 Ok((past, p))
@@ -937,7 +964,7 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
         let located_point = match result {
             Ok(found) => {
                 let summary = (
-                    found.arclength,
+                    sa + found.arclength,
                     found.uncertainty,
                     found.trials,
                     found.converged,
@@ -951,30 +978,38 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
             }
             Err(why) => Err(why),
         };
-        stats.newton_iterations += newton;
-        // A detected event whose location failed is still reported, at the step's end, with
-        // the whole step as its uncertainty.
+        // A detected event whose location failed is still reported, at the end of its
+        // interval, with the whole interval as its uncertainty.
         let (point, (arclength, uncertainty, trials, converged)) =
-            located_point.unwrap_or_else(|_| (next.clone(), (h, h.abs(), 0, false)));
+            located_point.unwrap_or_else(|_| (b.clone(), (sb, width.abs(), 0, false)));
         stats.location_steps += trials;
-        let multiplier =
-            bifurcation::test_function(crossing, &point).map_or((1.0, 0.0), |(_, m)| m);
-        let state_tangent = shooting.initial_state(&point.tangent);
-        let period_rate = point.tangent[point.tangent.len() - 1] * shooting.period_ref();
-        located.push(Event {
-            kind: crossing.kind(),
-            after: previous.index,
-            arclength,
-            arclength_uncertainty: uncertainty,
-            multiplicity: bifurcation::multiplicity(crossing, &point),
-            multiplier,
-            location_steps: trials,
-            converged,
-            state_tangent,
-            period_rate,
-            point,
-        });
+        located.push((crossing, arclength, uncertainty, trials, converged, point));
     }
+    stats.location_steps += refinements;
+    drop(trial_point);
+    stats.newton_iterations += newton;
+    let mut located: Vec<Event> = located
+        .into_iter()
+        .map(
+            |(crossing, arclength, uncertainty, trials, converged, point)| {
+                let multiplier =
+                    bifurcation::test_function(crossing, &point).map_or((1.0, 0.0), |(_, m)| m);
+                Event {
+                    kind: crossing.kind(),
+                    after: previous.index,
+                    arclength,
+                    arclength_uncertainty: uncertainty,
+                    multiplicity: bifurcation::multiplicity(crossing, &point),
+                    multiplier,
+                    location_steps: trials,
+                    converged,
+                    state_tangent: shooting.initial_state(&point.tangent),
+                    period_rate: point.tangent[point.tangent.len() - 1] * shooting.period_ref(),
+                    point,
+                }
+            },
+        )
+        .collect();
     located.sort_by(|a, b| a.arclength.total_cmp(&b.arclength));
     located
 }

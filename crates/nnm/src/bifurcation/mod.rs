@@ -354,7 +354,9 @@ pub(crate) fn illinois<T>(
                 trials: trial,
                 // A root drives `f` to its round-off; a jump of the test function (a sign
                 // change without a zero) leaves it at the size of the jump.
-                converged: fs.abs() <= 1e-3 * f0.abs().max(fh.abs()),
+                // It must also have stopped on its tolerance, not on the trial limit.
+                converged: fs.abs() <= 1e-3 * f0.abs().max(fh.abs())
+                    && (fs == 0.0 || width < tolerance || moved < tolerance),
             });
         }
     }
