@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 
 use crate::integrate::{DOP853, IntegrationError, Integrator, Steps, Tolerances};
-use crate::linalg::Mat;
+use crate::linalg::{self, Mat};
 use crate::model::{SecondOrderSystem, Structure};
 
 /// The motion over one period, sampled at `t_k = k T / samples`, `k = 0..=samples` (the last
@@ -70,12 +70,7 @@ pub fn harmonic_amplitudes(states: &[Vec<f64>], dofs: usize, count: usize) -> Ve
 /// scale: 0 for the same shape. Measures how far an NNM has moved from its linear mode
 /// (similar NNMs keep their shape, nonsimilar ones do not).
 pub fn shape_angle(mass: &Mat<f64>, a: &[f64], b: &[f64]) -> f64 {
-    let inner = |u: &[f64], v: &[f64]| -> f64 {
-        let n = u.len();
-        (0..n)
-            .map(|i| u[i] * (0..n).map(|j| mass[(i, j)] * v[j]).sum::<f64>())
-            .sum()
-    };
+    let inner = |u: &[f64], v: &[f64]| linalg::dot(u, &linalg::times(mass.as_ref(), v));
     let (ab, aa, bb) = (inner(a, b), inner(a, a), inner(b, b));
     if aa == 0.0 || bb == 0.0 {
         return 0.0;

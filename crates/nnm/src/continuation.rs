@@ -179,13 +179,10 @@ impl Start {
             .collect();
         order.extend(rest);
         let basis: Vec<f64> = order.iter().flat_map(|&k| modes[k].shape.clone()).collect();
-        let mass = structure.mass();
-        let mut mass_basis = vec![0.0; basis.len()];
-        for (c, col) in mass_basis.chunks_mut(n).enumerate() {
-            for (i, out) in col.iter_mut().enumerate() {
-                *out = (0..n).map(|j| mass[(i, j)] * basis[c * n + j]).sum();
-            }
-        }
+        let mass_basis: Vec<f64> = basis
+            .chunks(n)
+            .flat_map(|shape| linalg::times(structure.mass().as_ref(), shape))
+            .collect();
         let amplitude = match energy {
             Some(e) if e.is_finite() && e > 0.0 => (2.0 * e).sqrt() / mode.frequency,
             Some(e) => {
@@ -290,12 +287,7 @@ fn rigid_modes_decouple(structure: &Structure, modes: &[LinearMode], amplitude: 
 /// (1 when the model is linear along `φ`).
 fn weakly_nonlinear_amplitude(structure: &Structure, shape: &[f64], ratio: f64) -> f64 {
     let n = shape.len();
-    let k = structure.stiffness();
-    let k_phi: f64 = linalg::norm(
-        &(0..n)
-            .map(|i| (0..n).map(|j| k[(i, j)] * shape[j]).sum())
-            .collect::<Vec<f64>>(),
-    );
+    let k_phi = linalg::norm(&linalg::times(structure.stiffness().as_ref(), shape));
     let nonlinear_ratio = |c: f64| {
         let x: Vec<f64> = shape.iter().map(|s| c * s).collect();
         let mut f = vec![0.0; n];

@@ -122,6 +122,13 @@ pub fn right_singular(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Linalg
     Ok((order.iter().map(|&k| values[k]).collect(), vectors))
 }
 
+/// `A v` for a dense matrix and a vector.
+pub fn times(a: MatRef<'_, f64>, v: &[f64]) -> Vec<f64> {
+    (0..a.nrows())
+        .map(|i| (0..a.ncols()).map(|j| a[(i, j)] * v[j]).sum())
+        .collect()
+}
+
 /// Euclidean norm.
 pub fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
@@ -130,6 +137,23 @@ pub fn norm(x: &[f64]) -> f64 {
 /// Dot product.
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// The non-zeros of `a` in compressed rows: `(row_start, col, value)`.
+pub fn compressed_rows(a: &Mat<f64>) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+    let mut row_start = Vec::with_capacity(a.nrows() + 1);
+    let (mut col, mut value) = (Vec::new(), Vec::new());
+    row_start.push(0);
+    for i in 0..a.nrows() {
+        for j in 0..a.ncols() {
+            if a[(i, j)] != 0.0 {
+                col.push(j);
+                value.push(a[(i, j)]);
+            }
+        }
+        row_start.push(col.len());
+    }
+    (row_start, col, value)
 }
 
 /// A square operator `y (+)= A x` in the cheaper of two storages: compressed rows when the
@@ -157,18 +181,7 @@ impl Operator {
         if nonzeros * 4 > n * a.ncols() || a.nrows() != a.ncols() {
             return Operator::Dense(a.clone());
         }
-        let mut row_start = Vec::with_capacity(n + 1);
-        let (mut col, mut value) = (Vec::new(), Vec::new());
-        row_start.push(0);
-        for i in 0..n {
-            for j in 0..n {
-                if a[(i, j)] != 0.0 {
-                    col.push(j);
-                    value.push(a[(i, j)]);
-                }
-            }
-            row_start.push(col.len());
-        }
+        let (row_start, col, value) = compressed_rows(a);
         Operator::Sparse {
             n,
             row_start,
@@ -413,16 +426,7 @@ mod tests {
                 0.0
             }
         });
-        let (mut row_start, mut col, mut value) = (vec![0], vec![], vec![]);
-        for i in 0..n {
-            for j in 0..n {
-                if a[(i, j)] != 0.0 {
-                    col.push(j);
-                    value.push(a[(i, j)]);
-                }
-            }
-            row_start.push(col.len());
-        }
+        let (row_start, col, value) = compressed_rows(&a);
         let x: Vec<f64> = (0..n * k).map(|p| (0.37 * p as f64).cos()).collect();
         let mut out = vec![f64::NAN; n * k];
         sparse_times_interleaved(&row_start, &col, &value, &x, k, &mut out);

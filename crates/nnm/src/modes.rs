@@ -240,14 +240,7 @@ fn standing_waves(
 }
 
 fn mass_norm(v: &[f64], mass: &Mat<f64>) -> f64 {
-    let n = v.len();
-    let mut q = 0.0;
-    for j in 0..n {
-        for i in 0..n {
-            q += v[i] * mass[(i, j)] * v[j];
-        }
-    }
-    q.sqrt()
+    linalg::dot(v, &linalg::times(mass.as_ref(), v)).sqrt()
 }
 
 #[cfg(test)]

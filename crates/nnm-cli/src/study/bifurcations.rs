@@ -53,12 +53,7 @@ fn pair_content(
     period: f64,
 ) -> Result<(f64, f64)> {
     let n = structure.dofs();
-    let mass = structure.mass();
-    let mass_times = |shape: &[f64]| -> Vec<f64> {
-        (0..n)
-            .map(|i| (0..n).map(|j| mass[(i, j)] * shape[j]).sum())
-            .collect()
-    };
+    let mass_times = |v: &[f64]| linalg::times(structure.mass().as_ref(), v);
     let (mc, ms) = (mass_times(&cos.shape), mass_times(&sin.shape));
     let states = sample_motion(structure, z0, period, 64, 1e-10)?;
     let (mut sin_power, mut power, mut momentum) = (0.0, 0.0, 0.0);
@@ -82,15 +77,9 @@ fn strongest_other_mode<'m>(
     skip: &LinearMode,
     z0: &[f64],
 ) -> (&'m LinearMode, f64) {
-    let n = structure.dofs();
-    let mass = structure.mass();
-    let (x, v) = z0.split_at(n);
-    let mx: Vec<f64> = (0..n)
-        .map(|i| (0..n).map(|j| mass[(i, j)] * x[j]).sum())
-        .collect();
-    let mv: Vec<f64> = (0..n)
-        .map(|i| (0..n).map(|j| mass[(i, j)] * v[j]).sum())
-        .collect();
+    let (x, v) = z0.split_at(structure.dofs());
+    let mass_times = |v: &[f64]| linalg::times(structure.mass().as_ref(), v);
+    let (mx, mv) = (mass_times(x), mass_times(v));
     let energies: Vec<f64> = modes
         .iter()
         .map(|m| {
