@@ -457,42 +457,52 @@ struct Writing<'a, F> {
     extra: F,
 }
 
-impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F> {
-    fn point(&mut self, p: &BranchPoint) -> ControlFlow<()> {
-        if let Err(e) = self.writer.write_point(p) {
+impl<F> Writing<'_, F> {
+    /// Keeps a write error (the continuation then stops) or prints the progress line.
+    fn after_write(
+        &mut self,
+        written: Result<(), nnm_io::output::OutputError>,
+        line: impl FnOnce() -> String,
+    ) -> ControlFlow<()> {
+        if let Err(e) = written {
             self.error = Some(e);
             return ControlFlow::Break(());
         }
         if !self.quiet {
             let _guard = self.log.lock();
-            eprintln!(
-                "[{}] point {:>3}  E = {:<11.4e} f = {:.6} rad/s ({:+.3}%)  {}  |mu|max = {:.6}",
-                self.info.name,
+            eprintln!("[{}] {}", self.info.name, line());
+        }
+        ControlFlow::Continue(())
+    }
+}
+
+impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F> {
+    fn point(&mut self, p: &BranchPoint) -> ControlFlow<()> {
+        let written = self.writer.write_point(p);
+        let linear = self.info.linear_frequency_rad_s;
+        self.after_write(written, || {
+            format!(
+                "point {:>3}  E = {:<11.4e} f = {:.6} rad/s ({:+.3}%)  {}  |mu|max = {:.6}",
                 p.index,
                 p.energy,
                 p.frequency,
-                100.0 * (p.frequency / self.info.linear_frequency_rad_s - 1.0),
+                100.0 * (p.frequency / linear - 1.0),
                 if p.floquet.stable {
                     "stable  "
                 } else {
                     "unstable"
                 },
                 p.floquet.max_modulus
-            );
-        }
+            )
+        })?;
         (self.extra)(p)
     }
 
     fn event(&mut self, e: &Event) -> ControlFlow<()> {
-        if let Err(err) = self.writer.write_event(e) {
-            self.error = Some(err);
-            return ControlFlow::Break(());
-        }
-        if !self.quiet {
-            let _guard = self.log.lock();
-            eprintln!(
-                "[{}] event: {} at E = {:.10e}, f = {:.9} rad/s, multiplier ({:.6}, {:.6}){}",
-                self.info.name,
+        let written = self.writer.write_event(e);
+        self.after_write(written, || {
+            format!(
+                "event: {} at E = {:.10e}, f = {:.9} rad/s, multiplier ({:.6}, {:.6}){}",
                 e.kind.name(),
                 e.point.energy,
                 e.point.frequency,
@@ -503,9 +513,8 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F>
                 } else {
                     " (location not converged)"
                 }
-            );
-        }
-        ControlFlow::Continue(())
+            )
+        })
     }
 }
 

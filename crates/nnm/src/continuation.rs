@@ -782,11 +782,10 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
         None => floquet::analyse_deflated(&monodromy, directions, settings.stability_tolerance),
     }
     .map_err(|e| e.to_string())?;
-    let energy = shooting.energy(&evaluation.z0);
-    if !energy.is_finite() {
-        return Err(format!("non-finite energy {energy}"));
+    let mut point = light_point(shooting, corrected, tangent, index, step);
+    if !point.energy.is_finite() {
+        return Err(format!("non-finite energy {}", point.energy));
     }
-    let energy_slope = energy_slope(shooting, &corrected.unknowns, tangent);
     let full_period_residual = shooting
         .full_period_residual(evaluation)
         .map_err(|e| e.to_string())?;
@@ -795,21 +794,9 @@ fn make_point<S: SecondOrderSystem + ?Sized>(
             "the motion is not half-wave symmetric (full-period residual {full_period_residual:.2e}); set half_period = false"
         ));
     }
-    Ok(BranchPoint {
-        index,
-        energy,
-        energy_slope,
-        period: evaluation.period,
-        frequency: 2.0 * std::f64::consts::PI / evaluation.period,
-        z0: evaluation.z0.clone(),
-        floquet,
-        relative_residual: evaluation.relative_residual,
-        full_period_residual,
-        iterations: corrected.iterations,
-        step,
-        unknowns: corrected.unknowns.clone(),
-        tangent: tangent.to_vec(),
-    })
+    point.floquet = floquet;
+    point.full_period_residual = full_period_residual;
+    Ok(point)
 }
 
 /// `dE/ds` along the unit tangent `t` at unknowns `u`, by the five-point central difference
@@ -978,7 +965,6 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
         located.push((crossing, arclength, uncertainty, trials, converged, point));
     }
     stats.location_steps += refinements;
-    drop(trial_point);
     stats.newton_iterations += newton;
     let mut located: Vec<Event> = located
         .into_iter()
@@ -1006,7 +992,8 @@ fn locate_events<S: SecondOrderSystem + ?Sized>(
     located
 }
 
-/// A point without the Floquet analysis (for trials that only need `dE/ds`).
+/// A point without the Floquet analysis and the full-period check (for location trials that
+/// only need `dE/ds`); [`make_point`] completes it.
 fn light_point<S: SecondOrderSystem + ?Sized>(
     shooting: &Shooting<'_, S>,
     corrected: &Corrected,

@@ -213,22 +213,12 @@ pub(crate) fn detect(a: &BranchPoint, b: &BranchPoint) -> Vec<Crossing> {
 /// critical multiplier there.
 pub(crate) fn test_function(crossing: Crossing, point: &BranchPoint) -> Option<(f64, Complex)> {
     let pairs = &point.floquet.pairs;
-    let real_pairs = |excluded: PairKind| {
-        pairs
-            .iter()
-            .filter(move |p| p.kind != PairKind::Complex && p.kind != excluded)
-    };
     match crossing {
-        Crossing::Fold => {
-            let critical = real_pairs(PairKind::NegativeReal)
-                .min_by(|x, y| {
-                    (x.trace().0 - 2.0)
-                        .abs()
-                        .total_cmp(&(y.trace().0 - 2.0).abs())
-                })
-                .map_or((1.0, 0.0), |p| p.multiplier);
-            Some((point.energy_slope, critical))
-        }
+        // The fold's own pair crosses +1 with it: report the multiplier nearest +1.
+        Crossing::Fold => Some((
+            point.energy_slope,
+            characteristic(pairs, 2.0).map_or((1.0, 0.0), |(_, m)| m),
+        )),
         Crossing::PlusOne => characteristic(pairs, 2.0),
         Crossing::MinusOne => characteristic(pairs, -2.0),
         Crossing::Krein { rho, count } => {
