@@ -1,4 +1,12 @@
+use std::path::{Path, PathBuf};
+
+use plotters::style::RGBColor;
+
 use super::*;
+use crate::axes::{tick_decimals, tick_label, x_tick_label, x_ticks};
+use crate::clip::{clip_polyline, contains};
+use crate::panel::polyline_paths;
+use crate::style::{REFERENCE_GREY, palette};
 
 /// A fresh directory per test so parallel tests never share files.
 fn temp_dir(name: &str) -> PathBuf {
