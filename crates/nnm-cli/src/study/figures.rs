@@ -1,0 +1,320 @@
+//! Every figure the study draws (PNG and SVG through nnm-plot), from the sections' numbers.
+//! Ranges, labels and markers are chosen here; what is plotted is computed elsewhere.
+
+use std::path::Path;
+
+use anyhow::Result;
+use nnm::continuation::Branch;
+use nnm::model::{SecondOrderSystem, Structure};
+use nnm::modes::{LinearMode, find_mode};
+use nnm_plot::{FrequencyEnergyPlot, Line, LinePlot, Marker, PlotGrid, Series, SeriesPoint};
+
+use super::SAMPLES;
+use super::backbones::Backbones;
+use super::bifurcations::{SWITCHED_SHIFT, Switched};
+use super::junction::JunctionCheck;
+use super::localization::Localization;
+use super::tongue::{Motion, Tongue};
+use crate::run::event_markers;
+
+/// Modes whose shapes are drawn (the paper's Figure 3).
+pub(super) const SHAPE_MODES: [&str; 4] = ["0,1", "0,15", "1,5", "1,14"];
+
+/// A branch as a frequency–energy series, its frequencies multiplied by `scale`.
+fn series_of(label: &str, branch: &Branch, scale: f64) -> Series {
+    Series {
+        label: label.into(),
+        points: branch
+            .points
+            .iter()
+            .map(|p| SeriesPoint {
+                energy: p.energy,
+                frequency: p.frequency * scale,
+                stable: p.floquet.stable,
+            })
+            .collect(),
+        ..Default::default()
+    }
+}
+
+/// `mode-shapes`: disk and blade amplitude per sector of each of `SHAPE_MODES`.
+pub(super) fn mode_shapes(structure: &Structure, modes: &[LinearMode], out: &Path) -> Result<()> {
+    let sectors = structure.dofs() / 2;
+    let panels = SHAPE_MODES
+        .iter()
+        .map(|label| {
+            let (_, m) = find_mode(modes, label, None).expect("checked");
+            let line = |name: &str, offset: usize| Line {
+                label: name.into(),
+                xy: (0..sectors)
+                    .map(|i| ((i + 1) as f64, m.shape[2 * i + offset]))
+                    .collect(),
+                ..Default::default()
+            };
+            LinePlot {
+                title: format!("mode ({label}), {:.3} rad/s", m.frequency),
+                x_label: "sector".into(),
+                y_label: "amplitude".into(),
+                lines: vec![line("disk", 0), line("blade", 1)],
+                ..Default::default()
+            }
+        })
+        .collect();
+    PlotGrid {
+        title: "Linear mode shapes (mass-normalised)".into(),
+        columns: 2,
+        panels,
+    }
+    .write(&out.join("mode-shapes"))?;
+    Ok(())
+}
+
+/// `fep-backbones`: the frequency–energy plot of every backbone.
+pub(super) fn backbones(backbones: &Backbones, out: &Path) -> Result<()> {
+    let series = backbones
+        .computed()
+        .map(|(o, branch)| series_of(&o.info.name, branch, 1.0))
+        .collect();
+    FrequencyEnergyPlot {
+        title: "Backbones of the bladed disk".into(),
+        series,
+        frequency_label: "frequency (rad/s)".into(),
+        ..Default::default()
+    }
+    .write(&out.join("fep-backbones"))?;
+    Ok(())
+}
+
+/// `localization`: the top-3 share along the backbone against the standing wave's;
+/// `localized-motion`: every blade and disk over one period at the most localized point.
+pub(super) fn localization(localization: &Localization, out: &Path) -> Result<()> {
+    let shares = &localization.points;
+    let base = localization.standing_wave_share;
+    LinePlot {
+        title: "Localization along the (1,14) backbone".into(),
+        x_label: "total energy".into(),
+        y_label: "share of energy in the 3 most energetic sectors".into(),
+        log_x: true,
+        lines: vec![
+            Line {
+                label: "(1,14)".into(),
+                xy: shares.iter().map(|s| (s.energy, s.top3_share)).collect(),
+                ..Default::default()
+            },
+            Line {
+                label: "linear standing wave".into(),
+                xy: vec![
+                    (shares[0].energy, base),
+                    (shares[shares.len() - 1].energy, base),
+                ],
+                reference: true,
+                ..Default::default()
+            },
+        ],
+        ..Default::default()
+    }
+    .write(&out.join("localization"))?;
+    let (states, sectors, peak) = (
+        &localization.peak_motion,
+        localization.sectors,
+        &localization.peak,
+    );
+    let panel = |offset: usize, what: &str| LinePlot {
+        title: format!("{what} displacement, all {sectors} sectors"),
+        x_label: "t / T".into(),
+        y_label: "displacement".into(),
+        lines: (0..sectors)
+            .map(|i| Line {
+                label: format!("sector {}", i + 1),
+                xy: states
+                    .iter()
+                    .enumerate()
+                    .map(|(k, z)| (k as f64 / SAMPLES as f64, z[2 * i + offset]))
+                    .collect(),
+                ..Default::default()
+            })
+            .collect(),
+        ..Default::default()
+    };
+    PlotGrid {
+        title: format!(
+            "Localized NNM motion of (1,14) at E = {:.3}, {:.4} rad/s",
+            peak.energy, peak.frequency
+        ),
+        columns: 2,
+        panels: vec![panel(1, "blade"), panel(0, "disk")],
+    }
+    .write(&out.join("localized-motion"))?;
+    Ok(())
+}
+
+/// `bifurcations`: the parent backbone, the switched family and their events, zoomed on the
+/// switch.
+pub(super) fn bifurcations(switched: &Switched, out: &Path) -> Result<()> {
+    let (event, linear) = (switched.event, switched.linear_frequency);
+    let markers = event_markers(
+        switched
+            .parent
+            .events
+            .iter()
+            .chain(&switched.branch.events)
+            .filter(|e| e.point.frequency < linear * (1.0 + SWITCHED_SHIFT + 0.01)),
+    );
+    FrequencyEnergyPlot {
+        title: "(1,5): backbone, branch points and the switched family".into(),
+        series: vec![
+            series_of("(1,5) backbone", switched.parent, 1.0),
+            series_of("switched at the first BP", &switched.branch, 1.0),
+        ],
+        frequency_label: "frequency (rad/s)".into(),
+        markers,
+        // Zoom on the switch: from a third of the branch point's energy to past the end of
+        // the switched family.
+        x_range: Some((
+            event.point.energy / 3.0,
+            2.0 * switched
+                .branch
+                .points
+                .last()
+                .map_or(event.point.energy, |p| p.energy),
+        )),
+        y_range: Some((linear * 0.995, linear * (1.0 + SWITCHED_SHIFT + 0.02))),
+    }
+    .write(&out.join("bifurcations"))?;
+    Ok(())
+}
+
+/// `tongue`: the (0,6) backbone, the tongue and the (1,12) backbone at a third of its
+/// frequency, zoomed on the tongue; `tongue-harmonics`: fundamental and third harmonic along
+/// the branch; `tongue-motions`: the motions at M1–M3.
+pub(super) fn tongue(
+    tongue: &Tongue,
+    junction: &JunctionCheck,
+    motions: &[Motion],
+    backbone_0_6: &Branch,
+    out: &Path,
+) -> Result<()> {
+    let (e_junction, _) = tongue.junction();
+    let markers = motions
+        .iter()
+        .map(|m| Marker {
+            x: m.energy,
+            y: m.frequency,
+            label: m.name.to_string(),
+        })
+        .collect();
+    let tongue_branch_series = Series {
+        label: "(0,6) continued: tongue".into(),
+        points: tongue
+            .points
+            .iter()
+            .map(|t| SeriesPoint {
+                energy: t.point.energy,
+                frequency: t.point.frequency,
+                stable: t.point.floquet.stable,
+            })
+            .collect(),
+        ..Default::default()
+    };
+    // Energies: the tongue and a little around it (down to a third of the junction's energy
+    // at most); frequencies: whatever of the branches falls in that window, padded.
+    let (e_min, e_max) = tongue
+        .points
+        .iter()
+        .map(|t| t.point.energy)
+        .fold((f64::INFINITY, 0.0f64), |(a, b), e| (a.min(e), b.max(e)));
+    let x_range = (0.5 * e_min.max(e_junction / 3.0), 2.0 * e_max);
+    let (f_lo, f_hi) = tongue
+        .points
+        .iter()
+        .map(|t| &t.point)
+        .chain(&backbone_0_6.points)
+        .filter(|p| p.energy >= x_range.0 && p.energy <= x_range.1)
+        .map(|p| p.frequency)
+        .fold((f64::INFINITY, 0.0f64), |(a, b), f| (a.min(f), b.max(f)));
+    let pad = 0.15 * (f_hi - f_lo).max(1e-3);
+    FrequencyEnergyPlot {
+        title: "3:1 internal resonance between (0,6) and (1,12)".into(),
+        series: vec![
+            series_of("(0,6) backbone", backbone_0_6, 1.0),
+            tongue_branch_series,
+            Series {
+                reference: true,
+                ..series_of(
+                    "(1,12) backbone at 1/3 of its frequency",
+                    &junction.reference,
+                    1.0 / 3.0,
+                )
+            },
+        ],
+        frequency_label: "frequency (rad/s)".into(),
+        markers,
+        x_range: Some(x_range),
+        y_range: Some((f_lo - pad, f_hi + pad)),
+    }
+    .write(&out.join("tongue"))?;
+    let along = |value: &dyn Fn(f64, f64) -> f64| -> Vec<(f64, f64)> {
+        tongue
+            .points
+            .iter()
+            .map(|t| (t.point.index as f64, value(t.a1, t.a3)))
+            .collect()
+    };
+    LinePlot {
+        title: "Harmonic content along the (0,6) branch and its tongue".into(),
+        x_label: "point along the branch".into(),
+        y_label: "amplitude".into(),
+        lines: vec![
+            Line {
+                label: "fundamental |A1|".into(),
+                xy: along(&|a1, _| a1.abs()),
+                ..Default::default()
+            },
+            Line {
+                label: "third harmonic A3".into(),
+                xy: along(&|_, a3| a3),
+                dashed: true,
+                ..Default::default()
+            },
+        ],
+        markers: motions
+            .iter()
+            .map(|m| Marker {
+                x: tongue.points[m.index].point.index as f64,
+                y: tongue.points[m.index].a1.abs(),
+                label: m.name.to_string(),
+            })
+            .collect(),
+        ..Default::default()
+    }
+    .write(&out.join("tongue-harmonics"))?;
+    let panels = motions
+        .iter()
+        .map(|m| {
+            let line = |label: &str, dof: usize| Line {
+                label: label.into(),
+                xy: m
+                    .states
+                    .iter()
+                    .enumerate()
+                    .map(|(j, z)| (j as f64 / SAMPLES as f64, z[dof]))
+                    .collect(),
+                ..Default::default()
+            };
+            LinePlot {
+                title: format!("{}: E = {:.4e}, {:.5} rad/s", m.name, m.energy, m.frequency),
+                x_label: "t / T".into(),
+                y_label: "displacement, sector 1".into(),
+                lines: vec![line("disk", 0), line("blade", 1)],
+                ..Default::default()
+            }
+        })
+        .collect();
+    PlotGrid {
+        title: "Motions along the tongue".into(),
+        columns: 3,
+        panels,
+    }
+    .write(&out.join("tongue-motions"))?;
+    Ok(())
+}
