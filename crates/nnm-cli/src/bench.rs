@@ -6,10 +6,10 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use nnm::continuation::{Branch, Settings, Start, continue_branch};
 use nnm::model::{BladedDisk, Structure, duffing, two_dof};
 use nnm::modes::{find_mode, linear_modes};
 use nnm::shooting::JacobianMethod;
+use nnm::{Branch, Settings, Start, continue_branch};
 
 struct Row {
     case: String,
@@ -43,9 +43,10 @@ fn branch_rows(
     METHODS
         .iter()
         .map(|&(jacobian, method)| {
-            let settings = Settings {
-                jacobian,
-                ..settings.clone()
+            let settings = {
+                let mut s = settings.clone();
+                s.shooting.jacobian = jacobian;
+                s
             };
             let clock = Instant::now();
             let branch: Branch =
@@ -69,25 +70,24 @@ fn branch_rows(
 /// One shooting evaluation (residual + Jacobian) and the monodromy at a converged point of
 /// the (1,5) backbone near +5%, repeated.
 fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<Vec<Row>> {
-    let settings = Settings {
-        frequency_shift_max: 0.05,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.limits.frequency_shift_max = 0.05;
+        s
     };
     let branch = continue_branch(structure, start, &settings, |_| ControlFlow::Continue(()))?;
     let point = branch.points.last().context("no point")?;
     METHODS
         .iter()
         .map(|&(jacobian, method)| {
-            let mut shooting = start.shooting(
-                structure,
-                &Settings {
-                    jacobian,
-                    ..settings.clone()
-                },
-            );
+            let mut shooting = start.shooting(structure, &{
+                let mut s = settings.clone();
+                s.shooting.jacobian = jacobian;
+                s
+            });
             let clock = Instant::now();
             for _ in 0..repeat {
-                let evaluation = shooting.evaluate(&point.unknowns, &point.z0)?;
+                let evaluation = shooting.evaluate_with_reference(&point.unknowns, &point.z0)?;
                 shooting.monodromy(&evaluation)?;
             }
             let s = shooting.stats;
@@ -116,19 +116,21 @@ pub fn bench(repeat: usize) -> Result<()> {
         "(1,5) backbone to +10%",
         &disk,
         &start_1_5,
-        &Settings {
-            frequency_shift_max: 0.10,
-            events: false,
-            ..Settings::default()
+        &{
+            let mut s = Settings::default();
+            s.limits.frequency_shift_max = 0.10;
+            s.stability.events = false;
+            s
         },
     )?);
     rows.extend(branch_rows(
         "(1,5) to +10%, events located",
         &disk,
         &start_1_5,
-        &Settings {
-            frequency_shift_max: 0.10,
-            ..Settings::default()
+        &{
+            let mut s = Settings::default();
+            s.limits.frequency_shift_max = 0.10;
+            s
         },
     )?);
     let duffing = duffing(1.0, 1.0)?;
@@ -136,11 +138,12 @@ pub fn bench(repeat: usize) -> Result<()> {
         "Duffing backbone to +50%, tol 1e-10",
         &duffing,
         &start(&duffing, "0")?,
-        &Settings {
-            tolerance: 1e-10,
-            frequency_shift_max: 0.5,
-            events: false,
-            ..Settings::default()
+        &{
+            let mut s = Settings::default();
+            s.continuation.tolerance = 1e-10;
+            s.limits.frequency_shift_max = 0.5;
+            s.stability.events = false;
+            s
         },
     )?);
     let two = two_dof(0.5)?;
@@ -148,10 +151,11 @@ pub fn bench(repeat: usize) -> Result<()> {
         "two-DOF in-phase to E = 100",
         &two,
         &start(&two, "0")?,
-        &Settings {
-            energy_max: 100.0,
-            events: false,
-            ..Settings::default()
+        &{
+            let mut s = Settings::default();
+            s.limits.energy_max = 100.0;
+            s.stability.events = false;
+            s
         },
     )?);
     println!(

@@ -7,10 +7,10 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
 use nnm::bifurcation::{Event, switch_branch};
-use nnm::continuation::{Branch, BranchPoint, Observer, Start, continue_branch_observed};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
 use nnm::shooting::PhaseCondition;
+use nnm::{Branch, BranchPoint, Observer, Start, continue_branch_observed};
 use nnm_io::job::{BranchJob, EventStart, load_job};
 use nnm_io::output::{BranchInfo, BranchWriter, SwitchedFrom, write_modes_csv};
 use nnm_plot::{FrequencyEnergyPlot, Marker, Series, SeriesPoint};
@@ -304,8 +304,13 @@ pub fn make_start(
     let job = &request.job;
     let start = match parent {
         None => {
-            let start = Start::from_linear_mode(structure, modes, request.index, job.energy_start)?;
-            if job.symmetry {
+            let start = Start::from_linear_mode(
+                structure,
+                modes,
+                request.index,
+                job.settings.start.energy_start,
+            )?;
+            if job.settings.start.symmetry {
                 start
             } else {
                 start.unrestricted()
@@ -336,7 +341,7 @@ pub fn make_start(
             .with_context(|| {
                 format!("cannot switch at event {} of `{}`", from.event, from.branch)
             })?;
-            let phase = switch.start.phase.unwrap_or(job.settings.phase);
+            let phase = switch.start.phase.unwrap_or(job.settings.shooting.phase);
             info.switched_from = Some(SwitchedFrom {
                 branch: from.branch.clone(),
                 event: from.event,

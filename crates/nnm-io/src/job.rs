@@ -24,15 +24,12 @@
 
 use std::path::{Path, PathBuf};
 
-use nnm::continuation::Settings;
-use nnm::integrate::{DOP853, DOPRI5};
-use nnm::linalg::Mat;
+use nnm::Settings;
 use nnm::model::{
-    BladedDisk, CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, Structure, duffing,
-    two_dof,
+    BladedDisk, CyclicSymmetry, Matrix, ModelError, NonlinearElement, PolynomialSpring, Structure,
+    duffing, two_dof,
 };
 use nnm::modes::StandingWave;
-use nnm::shooting::{JacobianMethod, PhaseCondition};
 use serde::Deserialize;
 
 use crate::matrix_market::{MatrixMarketError, read_matrix_market};
@@ -77,11 +74,8 @@ pub struct BranchJob {
     /// Start from an event of an earlier branch instead of a linear mode.
     pub from_event: Option<EventStart>,
     pub pattern: Option<StandingWave>,
-    /// Linear energy of the starting guess (`None`: chosen from the nonlinearity's size).
-    pub energy_start: Option<f64>,
-    /// Restrict the unknowns to the starting mode's mirror-symmetry class when the model has
-    /// one (default `true`).
-    pub symmetry: bool,
+    /// Every setting of the branch: the `[settings]` section overridden key by key by the
+    /// branch's own (the start energy and symmetry restriction are in `settings.start`).
     pub settings: Settings,
 }
 
@@ -149,86 +143,27 @@ struct CyclicSpec {
     dofs_per_sector: usize,
 }
 
-/// Branch options, settable per branch or in `[settings]` for all.
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Options {
-    energy_max: Option<f64>,
-    frequency_shift_max: Option<f64>,
-    max_points: Option<usize>,
-    tolerance: Option<f64>,
-    energy_start: Option<f64>,
-    initial_step: Option<f64>,
-    min_step: Option<f64>,
-    max_step: Option<f64>,
-    max_iterations: Option<usize>,
-    max_turn_angle: Option<f64>,
-    stability_tolerance: Option<f64>,
-    integration_factor: Option<f64>,
-    jacobian: Option<JacobianMethod>,
-    phase: Option<PhaseCondition>,
-    integrator: Option<String>,
-    symmetry: Option<bool>,
-    half_period: Option<bool>,
-    events: Option<bool>,
-}
+/// The branch keys that are not settings.
+const BRANCH_KEYS: [&str; 4] = ["name", "mode", "pattern", "start"];
 
-impl Options {
-    /// `self` overrides `defaults` key by key.
-    fn or(self, defaults: &Options) -> Options {
-        Options {
-            energy_max: self.energy_max.or(defaults.energy_max),
-            frequency_shift_max: self.frequency_shift_max.or(defaults.frequency_shift_max),
-            max_points: self.max_points.or(defaults.max_points),
-            tolerance: self.tolerance.or(defaults.tolerance),
-            energy_start: self.energy_start.or(defaults.energy_start),
-            initial_step: self.initial_step.or(defaults.initial_step),
-            min_step: self.min_step.or(defaults.min_step),
-            max_step: self.max_step.or(defaults.max_step),
-            max_iterations: self.max_iterations.or(defaults.max_iterations),
-            max_turn_angle: self.max_turn_angle.or(defaults.max_turn_angle),
-            stability_tolerance: self.stability_tolerance.or(defaults.stability_tolerance),
-            integration_factor: self.integration_factor.or(defaults.integration_factor),
-            jacobian: self.jacobian.or(defaults.jacobian),
-            phase: self.phase.or(defaults.phase),
-            integrator: self.integrator.clone().or(defaults.integrator.clone()),
-            symmetry: self.symmetry.or(defaults.symmetry),
-            half_period: self.half_period.or(defaults.half_period),
-            events: self.events.or(defaults.events),
-        }
+/// Settings from a flat table (`[settings]` overridden by a branch's keys): a key that is
+/// neither a setting nor a branch key is refused (a typo must not fall back to a default).
+fn settings_from(table: toml::Table) -> Result<Settings, String> {
+    if let Some(key) = table.keys().find(|k| !Settings::KEYS.contains(&k.as_str())) {
+        let mut expected: Vec<&str> = Settings::KEYS.to_vec();
+        expected.extend(BRANCH_KEYS);
+        return Err(format!(
+            "unknown field `{key}`, expected one of {}",
+            expected
+                .iter()
+                .map(|k| format!("`{k}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
     }
-
-    fn settings(&self) -> Result<Settings, String> {
-        let d = Settings::default();
-        let tableau = match self.integrator.as_deref() {
-            None | Some("dop853") => &DOP853,
-            Some("dopri5") => &DOPRI5,
-            Some(other) => {
-                return Err(format!(
-                    "unknown integrator `{other}` (expected \"dop853\" or \"dopri5\")"
-                ));
-            }
-        };
-        Ok(Settings {
-            tolerance: self.tolerance.unwrap_or(d.tolerance),
-            energy_max: self.energy_max.unwrap_or(d.energy_max),
-            max_points: self.max_points.unwrap_or(d.max_points),
-            frequency_shift_max: self.frequency_shift_max.unwrap_or(d.frequency_shift_max),
-            initial_step: self.initial_step.unwrap_or(d.initial_step),
-            min_step: self.min_step.unwrap_or(d.min_step),
-            max_step: self.max_step.unwrap_or(d.max_step),
-            max_iterations: self.max_iterations.unwrap_or(d.max_iterations),
-            target_iterations: d.target_iterations,
-            max_turn_angle: self.max_turn_angle.unwrap_or(d.max_turn_angle),
-            stability_tolerance: self.stability_tolerance.unwrap_or(d.stability_tolerance),
-            phase: self.phase.unwrap_or(d.phase),
-            jacobian: self.jacobian.unwrap_or(d.jacobian),
-            tableau,
-            integration_factor: self.integration_factor.unwrap_or(d.integration_factor),
-            half_period: self.half_period.unwrap_or(d.half_period),
-            events: self.events.unwrap_or(d.events),
-        })
-    }
+    table
+        .try_into()
+        .map_err(|e: toml::de::Error| e.message().to_string())
 }
 
 /// Reads and validates a job file. Matrix files are resolved relative to the job's folder.
@@ -250,15 +185,9 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
     let base = path.parent().unwrap_or(Path::new("."));
     let (structure, family) = build_model(&file.model, base, path)?;
 
-    let defaults: Options = match file.settings {
-        Some(table) => table
-            .try_into()
-            .map_err(|e: toml::de::Error| invalid(format!("[settings]: {}", e.message())))?,
-        None => Options::default(),
-    };
-    let default_settings = defaults
-        .settings()
-        .map_err(|m| invalid(format!("[settings]: {m}")))?;
+    let defaults: toml::Table = file.settings.unwrap_or_default();
+    let default_settings =
+        settings_from(defaults.clone()).map_err(|m| invalid(format!("[settings]: {m}")))?;
     default_settings
         .validate()
         .map_err(|e| invalid(format!("[settings]: {e}")))?;
@@ -325,16 +254,13 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
             Some(toml::Value::String(s)) if s == "sin" => Some(StandingWave::Sin),
             Some(_) => return Err(invalid(context("`pattern` must be \"cos\" or \"sin\""))),
         };
-        let options: Options = table
-            .try_into()
-            .map_err(|e: toml::de::Error| invalid(context(e.message())))?;
         if from_event.is_some() {
             // A switched branch takes its start, unknowns and period from the switch.
             let ignored = [
                 ("pattern", pattern.is_some()),
-                ("energy_start", options.energy_start.is_some()),
-                ("symmetry", options.symmetry.is_some()),
-                ("half_period", options.half_period.is_some()),
+                ("energy_start", table.contains_key("energy_start")),
+                ("symmetry", table.contains_key("symmetry")),
+                ("half_period", table.contains_key("half_period")),
             ];
             if let Some((key, _)) = ignored.iter().find(|(_, given)| *given) {
                 return Err(invalid(context(&format!(
@@ -342,33 +268,25 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
                 ))));
             }
         }
-        let options = options.or(&defaults);
-        let settings = options.settings().map_err(|m| invalid(context(&m)))?;
+        let mut merged = defaults.clone();
+        merged.extend(table);
+        let has_limit = ["energy_max", "frequency_shift_max", "max_points"]
+            .iter()
+            .any(|k| merged.contains_key(*k));
+        let settings = settings_from(merged).map_err(|m| invalid(context(&m)))?;
         settings
             .validate()
             .map_err(|e| invalid(context(&e.to_string())))?;
-        if options.energy_max.is_none()
-            && options.frequency_shift_max.is_none()
-            && options.max_points.is_none()
-        {
+        if !has_limit {
             return Err(invalid(context(
                 "give a stop limit: `energy_max`, `frequency_shift_max` or `max_points`",
             )));
-        }
-        if let Some(e) = options.energy_start
-            && !(e.is_finite() && e > 0.0)
-        {
-            return Err(invalid(context(&format!(
-                "energy_start must be positive and finite, got {e}"
-            ))));
         }
         branches.push(BranchJob {
             name,
             mode,
             from_event,
             pattern,
-            energy_start: options.energy_start,
-            symmetry: options.symmetry.unwrap_or(true),
             settings,
         });
     }
@@ -524,7 +442,7 @@ fn load_matrix(
     name: &str,
     base: &Path,
     path: &Path,
-) -> Result<Mat<f64>, JobError> {
+) -> Result<Matrix, JobError> {
     match spec {
         MatrixSpec::Rows(rows) => {
             let n = rows.len();
@@ -538,11 +456,11 @@ fn load_matrix(
                     ),
                 });
             }
-            Ok(Mat::from_fn(n, n, |i, j| rows[i][j]))
+            Ok(Matrix::from_fn(n, n, |i, j| rows[i][j]))
         }
         MatrixSpec::File { file } => {
             let m = read_matrix_market(&base.join(file))?;
-            Ok(Mat::from_fn(m.rows, m.cols, |i, j| m.get(i, j)))
+            Ok(Matrix::from_fn(m.rows, m.cols, |i, j| m.get(i, j)))
         }
     }
 }

@@ -1,4 +1,4 @@
-//! Result files (SPEC §5): `modes.csv`, and per branch `<name>.csv`, `<name>.json` and
+//! Result files (README "Output files"): `modes.csv`, and per branch `<name>.csv`, `<name>.json` and
 //! `<name>.events.csv` (folds, branch points, period doublings and Krein collisions).
 //!
 //! The branch files are written as each point converges or event is located, so an
@@ -12,9 +12,9 @@ use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use nnm::bifurcation::Event;
-use nnm::continuation::{Branch, BranchPoint, BranchStats};
 use nnm::modes::{LinearMode, StandingWave};
 use nnm::symmetry::Parity;
+use nnm::{Branch, BranchPoint, BranchStats};
 use serde::Serialize;
 
 use crate::job::io_reason;

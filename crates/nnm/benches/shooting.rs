@@ -6,10 +6,10 @@ use std::hint::black_box;
 use std::ops::ControlFlow;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nnm::continuation::{Settings, Start, continue_branch};
 use nnm::model::{BladedDisk, Structure, duffing};
 use nnm::modes::{find_mode, linear_modes};
 use nnm::shooting::JacobianMethod;
+use nnm::{Settings, Start, continue_branch};
 
 const METHODS: [(JacobianMethod, &str); 2] = [
     (JacobianMethod::Sensitivity, "sensitivity"),
@@ -27,25 +27,24 @@ fn start(structure: &Structure, label: &str) -> Start {
 fn residual_and_monodromy(c: &mut Criterion) {
     let disk = BladedDisk::default().build().unwrap();
     let start = start(&disk, "1,5");
-    let settings = Settings {
-        frequency_shift_max: 0.05,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.limits.frequency_shift_max = 0.05;
+        s
     };
     let branch = continue_branch(&disk, &start, &settings, |_| ControlFlow::Continue(())).unwrap();
     let point = branch.points.last().unwrap().clone();
     let mut group = c.benchmark_group("(1,5) residual+jacobian+monodromy");
     for (jacobian, name) in METHODS {
-        let mut shooting = start.shooting(
-            &disk,
-            &Settings {
-                jacobian,
-                ..settings.clone()
-            },
-        );
+        let mut shooting = start.shooting(&disk, &{
+            let mut s = settings.clone();
+            s.shooting.jacobian = jacobian;
+            s
+        });
         group.bench_function(name, |b| {
             b.iter(|| {
                 let evaluation = shooting
-                    .evaluate(black_box(&point.unknowns), &point.z0)
+                    .evaluate_with_reference(black_box(&point.unknowns), &point.z0)
                     .unwrap();
                 shooting.monodromy(&evaluation).unwrap()
             })
@@ -78,11 +77,12 @@ fn backbones(c: &mut Criterion) {
         let mut group = c.benchmark_group(case);
         group.sample_size(10);
         for (jacobian, name) in METHODS {
-            let settings = Settings {
-                frequency_shift_max: shift,
-                tolerance,
-                jacobian,
-                ..Settings::default()
+            let settings = {
+                let mut s = Settings::default();
+                s.limits.frequency_shift_max = shift;
+                s.continuation.tolerance = tolerance;
+                s.shooting.jacobian = jacobian;
+                s
             };
             group.bench_function(name, |b| {
                 b.iter(|| {

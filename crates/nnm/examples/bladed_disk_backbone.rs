@@ -6,9 +6,9 @@
 use std::ops::ControlFlow;
 use std::time::Instant;
 
-use nnm::continuation::{Settings, Start, continue_branch};
 use nnm::model::BladedDisk;
 use nnm::modes::{find_mode, linear_modes};
+use nnm::{Settings, Start, continue_branch};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -19,10 +19,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let modes = linear_modes(&structure)?;
     let (index, mode) = find_mode(&modes, &label, None).ok_or("unknown mode label")?;
     let start = Start::from_linear_mode(&structure, &modes, index, None)?;
-    let settings = Settings {
-        frequency_shift_max: shift,
-        energy_max,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.limits.frequency_shift_max = shift;
+        s.limits.energy_max = energy_max;
+        s
     };
     let clock = Instant::now();
     println!(

@@ -4,20 +4,23 @@
 
 use std::ops::ControlFlow;
 
-use nnm::continuation::{Settings, Start, continue_branch};
 use nnm::model::duffing;
 use nnm::modes::linear_modes;
-use nnm::reference::{duffing_amplitude, duffing_period};
+use nnm::{Settings, Start, continue_branch};
+#[path = "../src/reference.rs"]
+mod reference;
+use reference::{duffing_amplitude, duffing_period};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (w0, alpha) = (1.0, 1.0);
     let structure = duffing(w0, alpha)?;
     let modes = linear_modes(&structure)?;
     let start = Start::from_linear_mode(&structure, &modes, 0, None)?;
-    let settings = Settings {
-        tolerance: 1e-9,
-        frequency_shift_max: 0.6,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.continuation.tolerance = 1e-9;
+        s.limits.frequency_shift_max = 0.6;
+        s
     };
     println!(
         "{:>12} {:>12} {:>12} {:>5}",

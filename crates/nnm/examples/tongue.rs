@@ -8,9 +8,9 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use nnm::analysis::{harmonic_amplitudes, sample_motion};
-use nnm::continuation::{Settings, Start, continue_branch};
-use nnm::model::{BladedDisk, SecondOrderSystem};
+use nnm::model::{BladedDisk, MechanicalSystem};
 use nnm::modes::{find_mode, linear_modes};
+use nnm::{Settings, Start, continue_branch};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let max_step: f64 = std::env::args().nth(1).map_or(Ok(0.25), |s| s.parse())?;
@@ -18,10 +18,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let modes = linear_modes(&structure)?;
     let (index, _) = find_mode(&modes, "0,6", None).ok_or("no (0,6)")?;
     let start = Start::from_linear_mode(&structure, &modes, index, None)?;
-    let settings = Settings {
-        max_points: 400,
-        max_step,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.limits.max_points = 400;
+        s.continuation.max_step = max_step;
+        s
     };
     let n = structure.dofs();
     let clock = Instant::now();

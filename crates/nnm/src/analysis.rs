@@ -3,14 +3,14 @@
 
 use std::f64::consts::PI;
 
-use crate::integrate::{DOP853, IntegrationError, Integrator, Steps, Tolerances};
-use crate::linalg::{self, Mat};
-use crate::model::{SecondOrderSystem, Structure};
+use crate::integrate::{DOP853, IntegrationError, Integrator, RungeKutta, Steps, Tolerances};
+use crate::linalg;
+use crate::model::{MechanicalSystem, Structure};
 
 /// The motion over one period, sampled at `t_k = k T / samples`, `k = 0..=samples` (the last
 /// sample closes the orbit). Each segment is integrated adaptively to relative tolerance
 /// `tolerance`, so sampling does not cost accuracy.
-pub fn sample_motion<S: SecondOrderSystem + ?Sized>(
+pub fn sample_motion<S: MechanicalSystem + ?Sized>(
     system: &S,
     z0: &[f64],
     period: f64,
@@ -18,7 +18,8 @@ pub fn sample_motion<S: SecondOrderSystem + ?Sized>(
     tolerance: f64,
 ) -> Result<Vec<Vec<f64>>, IntegrationError> {
     let scale = z0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let mut integrator = Integrator::new(
+    let mut integrator = RungeKutta::new(
+        system,
         &DOP853,
         Tolerances {
             relative: tolerance,
@@ -32,7 +33,6 @@ pub fn sample_motion<S: SecondOrderSystem + ?Sized>(
     let mut first_step = None;
     for _ in 0..samples {
         let flow = integrator.flow(
-            system,
             states.last().expect("non-empty"),
             dt,
             None,
@@ -69,8 +69,12 @@ pub fn harmonic_amplitudes(states: &[Vec<f64>], dofs: usize, count: usize) -> Ve
 /// Angle in `[0, π/2]` between two displacement shapes in the mass metric, ignoring sign and
 /// scale: 0 for the same shape. Measures how far an NNM has moved from its linear mode
 /// (similar NNMs keep their shape, nonsimilar ones do not).
-pub fn shape_angle(mass: &Mat<f64>, a: &[f64], b: &[f64]) -> f64 {
-    let inner = |u: &[f64], v: &[f64]| linalg::dot(u, &linalg::times(mass.as_ref(), v));
+pub fn shape_angle(mass: &dyn crate::model::MassOperator, a: &[f64], b: &[f64]) -> f64 {
+    let inner = |u: &[f64], v: &[f64]| {
+        let mut mv = vec![0.0; v.len()];
+        mass.apply(v, 1, &mut mv);
+        linalg::dot(u, &mv)
+    };
     let (ab, aa, bb) = (inner(a, b), inner(a, a), inner(b, b));
     if aa == 0.0 || bb == 0.0 {
         return 0.0;
@@ -85,12 +89,13 @@ pub fn shape_angle(mass: &Mat<f64>, a: &[f64], b: &[f64]) -> f64 {
 pub fn sector_energies(structure: &Structure, x: &[f64], v: &[f64]) -> Option<Vec<f64>> {
     let cyclic = structure.cyclic_symmetry()?;
     let n = x.len();
-    let (m, k) = (structure.mass(), structure.stiffness());
+    let (mv, kx) = (
+        structure.mass_matrix().times(v),
+        structure.stiffness().times(x),
+    );
     let mut energies = vec![0.0; cyclic.sectors];
     for r in 0..n {
-        let mv: f64 = (0..n).map(|j| m[(r, j)] * v[j]).sum();
-        let kx: f64 = (0..n).map(|j| k[(r, j)] * x[j]).sum();
-        energies[r / cyclic.dofs_per_sector] += 0.5 * (v[r] * mv + x[r] * kx);
+        energies[r / cyclic.dofs_per_sector] += 0.5 * (v[r] * mv[r] + x[r] * kx[r]);
     }
     for e in structure.elements() {
         if let Some(&first) = e.dofs_used().first() {
@@ -178,7 +183,7 @@ mod tests {
 
     #[test]
     fn shape_angle_ignores_scale_and_sign() {
-        let m = Mat::<f64>::identity(2, 2);
+        let m = crate::model::Mass::identity(2);
         assert!(shape_angle(&m, &[1.0, 1.0], &[-2.0, -2.0]) < 1e-7);
         assert!((shape_angle(&m, &[1.0, 0.0], &[0.0, 3.0]) - PI / 2.0).abs() < 1e-15);
     }

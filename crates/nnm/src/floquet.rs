@@ -1,4 +1,4 @@
-//! Floquet multipliers and stability of a periodic motion (SPEC §2).
+//! Floquet multipliers and stability of a periodic motion (docs/method.md §5).
 //!
 //! The multipliers are the eigenvalues of the monodromy matrix `Φ(T)`. Every periodic orbit of
 //! an autonomous conservative system has two at `+1` (the flow direction and the neighbouring
@@ -38,7 +38,7 @@ pub struct Floquet {
 
 impl Floquet {
     /// No multipliers (a point whose Floquet analysis was not done).
-    pub(crate) fn empty() -> Self {
+    pub fn empty() -> Self {
         Self {
             multipliers: Vec::new(),
             trivial: [0, 0],
@@ -47,6 +47,41 @@ impl Floquet {
             stable: false,
             unstable_pairs: 0,
             reciprocity_defect: f64::NAN,
+        }
+    }
+}
+
+/// Computes the multipliers of a monodromy matrix: the plug-in point for the eigen-solver
+/// (dense full spectrum today; multipliers of largest modulus by Arnoldi for large models).
+pub trait FloquetSolver: Send + Sync {
+    /// Multipliers and stability of `monodromy`, its trivial pair spanned by `directions`
+    /// (the flow direction and the direction along the family); `class`, when given, lists
+    /// the coordinates of an invariant block holding both directions (a symmetry class).
+    fn analyse(
+        &self,
+        monodromy: &Mat<f64>,
+        directions: [&[f64]; 2],
+        class: Option<&[usize]>,
+        tolerance: f64,
+    ) -> Result<Floquet, LinalgError>;
+}
+
+/// The dense full-spectrum analysis: [`analyse_deflated`], or [`analyse_deflated_split`] on a
+/// symmetry class.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct DenseFloquet;
+
+impl FloquetSolver for DenseFloquet {
+    fn analyse(
+        &self,
+        monodromy: &Mat<f64>,
+        directions: [&[f64]; 2],
+        class: Option<&[usize]>,
+        tolerance: f64,
+    ) -> Result<Floquet, LinalgError> {
+        match class {
+            Some(class) => analyse_deflated_split(monodromy, directions, class, tolerance),
+            None => analyse_deflated(monodromy, directions, tolerance),
         }
     }
 }

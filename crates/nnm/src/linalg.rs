@@ -81,6 +81,15 @@ pub fn solve_lower_transpose_in_place(l: MatRef<'_, f64>, b: &mut Mat<f64>) {
     );
 }
 
+/// Solves `L Lᵀ X = B` in place for `cols` contiguous column-major columns of `b`.
+pub fn cholesky_solve_in_place(l: MatRef<'_, f64>, b: &mut [f64], cols: usize) {
+    let n = l.nrows();
+    let rhs = faer::MatMut::from_column_major_slice_mut(&mut b[..n * cols], n, cols);
+    faer::linalg::triangular_solve::solve_lower_triangular_in_place(l, rhs, Par::Seq);
+    let rhs = faer::MatMut::from_column_major_slice_mut(&mut b[..n * cols], n, cols);
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(l.transpose(), rhs, Par::Seq);
+}
+
 /// Eigenvalues (ascending) and orthonormal eigenvectors of a symmetric matrix.
 pub fn symmetric_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), LinalgError> {
     let evd = a
@@ -101,7 +110,7 @@ pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<Complex>, LinalgError> {
 
 /// Least-squares solution of `A x = b` (A with full column rank) by Householder QR.
 ///
-/// This is the Moore–Penrose solution of SPEC §2 for the overdetermined corrector systems,
+/// This is the Moore–Penrose solution of the overdetermined corrector systems (docs/method.md §5),
 /// whose extra rows (energy conservation makes one periodicity equation redundant) are
 /// consistent at a solution.
 pub fn least_squares(a: MatRef<'_, f64>, b: &[f64]) -> Vec<f64> {
@@ -154,85 +163,6 @@ pub fn compressed_rows(a: &Mat<f64>) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
         row_start.push(col.len());
     }
     (row_start, col, value)
-}
-
-/// A square operator `y (+)= A x` in the cheaper of two storages: compressed rows when the
-/// matrix is sparse enough (the bladed disk's `M⁻¹K` has ≤ 4 non-zeros a row of 60), dense
-/// otherwise. Used on the integrator's hot path, so it never allocates.
-#[derive(Debug, Clone)]
-pub enum Operator {
-    Dense(Mat<f64>),
-    Sparse {
-        n: usize,
-        row_start: Vec<usize>,
-        col: Vec<usize>,
-        value: Vec<f64>,
-    },
-}
-
-impl Operator {
-    /// Chooses compressed rows when at most a quarter of the entries are non-zero.
-    pub fn new(a: &Mat<f64>) -> Self {
-        let n = a.nrows();
-        let nonzeros = (0..n)
-            .flat_map(|i| (0..a.ncols()).map(move |j| (i, j)))
-            .filter(|&(i, j)| a[(i, j)] != 0.0)
-            .count();
-        if nonzeros * 4 > n * a.ncols() || a.nrows() != a.ncols() {
-            return Operator::Dense(a.clone());
-        }
-        let (row_start, col, value) = compressed_rows(a);
-        Operator::Sparse {
-            n,
-            row_start,
-            col,
-            value,
-        }
-    }
-
-    /// `out[:, c] += alpha * A x[:, c]` for `cols` columns; `x` and `out` column-major with
-    /// the given column strides.
-    #[allow(clippy::too_many_arguments)]
-    pub fn apply_add(
-        &self,
-        alpha: f64,
-        x: &[f64],
-        x_stride: usize,
-        cols: usize,
-        out: &mut [f64],
-        out_stride: usize,
-    ) {
-        match self {
-            Operator::Dense(a) => {
-                let n = a.nrows();
-                gemm(
-                    out,
-                    out_stride,
-                    true,
-                    a.as_ref(),
-                    view(x, n, cols, x_stride),
-                    alpha,
-                );
-            }
-            Operator::Sparse {
-                n,
-                row_start,
-                col,
-                value,
-            } => {
-                for c in 0..cols {
-                    let xc = &x[c * x_stride..c * x_stride + n];
-                    let oc = &mut out[c * out_stride..c * out_stride + n];
-                    for (o, bounds) in oc.iter_mut().zip(row_start.windows(2)) {
-                        let (cols_i, vals_i) =
-                            (&col[bounds[0]..bounds[1]], &value[bounds[0]..bounds[1]]);
-                        let s: f64 = cols_i.iter().zip(vals_i).map(|(&j, &v)| v * xc[j]).sum();
-                        *o += alpha * s;
-                    }
-                }
-            }
-        }
-    }
 }
 
 /// Defines a hot kernel twice: as written (portable: SSE2 on x86-64) and compiled with AVX2,
@@ -387,33 +317,6 @@ fn combine_avx2<const ADD: bool, const M: usize>(o: &mut [f64], v: [f64; M], x: 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn sparse_and_dense_operator_agree() {
-        let a = Mat::from_fn(10, 10, |i, j| {
-            if i == j {
-                2.0
-            } else if i + 1 == j {
-                -1.0
-            } else {
-                0.0
-            }
-        });
-        let dense = Operator::Dense(a.clone());
-        let sparse = Operator::new(&a);
-        assert!(matches!(sparse, Operator::Sparse { .. }));
-        let x: Vec<f64> = (0..20).map(|i| (i as f64).sin()).collect();
-        let mut y1 = vec![1.0; 20];
-        let mut y2 = vec![1.0; 20];
-        dense.apply_add(-0.5, &x, 10, 2, &mut y1, 10);
-        sparse.apply_add(-0.5, &x, 10, 2, &mut y2, 10);
-        for (a, b) in y1.iter().zip(&y2) {
-            assert!((a - b).abs() < 1e-15);
-        }
-        // Against a hand computation for the first entry: 1 - 0.5 * (2 x0 - x1).
-        assert!((y1[0] - (1.0 - 0.5 * (2.0 * x[0] - x[1]))).abs() < 1e-15);
-    }
-
     /// Rows with zero to seven non-zeros (every grouping of the kernel) against a dense sum.
     #[test]
     fn sparse_times_interleaved_matches_dense() {

@@ -1,10 +1,11 @@
 //! Linear modal analysis: `K v = ω² M v`, rigid-body modes, and for cyclic structures the
-//! `(n, d)` labels and sector-aligned standing waves of degenerate pairs (SPEC §3, Table 1).
+//! `(n, d)` labels and sector-aligned standing waves of degenerate pairs (docs/method.md §7,
+//! Table 1 of the paper).
 
 use std::f64::consts::PI;
 
 use crate::linalg::{self, LinalgError, Mat};
-use crate::model::{CyclicSymmetry, SecondOrderSystem, Structure};
+use crate::model::{Block, BlockMut, CyclicSymmetry, MechanicalSystem};
 
 /// A linear normal mode.
 #[derive(Debug, Clone, PartialEq)]
@@ -67,16 +68,37 @@ pub enum ModesError {
 /// (ω/ω_max down to ~1e-6) are not mistaken for rigid ones.
 pub const RIGID_TOLERANCE: f64 = 1e-12;
 
-/// All linear modes of `structure`, in ascending frequency.
+/// The dense matrices `M` and `K = K_t(0)` of a system's linearisation at rest, from its
+/// operators (`n` products each: for the full-spectrum analysis of small and medium models).
+pub fn linearised_matrices<S: MechanicalSystem + ?Sized>(system: &S) -> (Mat<f64>, Mat<f64>) {
+    let n = system.dofs();
+    let eye: Vec<f64> = (0..n * n)
+        .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
+        .collect();
+    let (mut m, mut k) = (vec![0.0; n * n], vec![0.0; n * n]);
+    system.mass().apply(&eye, n, &mut m);
+    system.tangent_stiffness(
+        &vec![0.0; n],
+        Block::new(&eye, n, n, n),
+        BlockMut::new(&mut k, n, n, n),
+    );
+    let dense = |v: &[f64]| Mat::from_fn(n, n, |i, j| 0.5 * (v[j * n + i] + v[i * n + j]));
+    (dense(&m), dense(&k))
+}
+
+/// All linear modes of `system` (its linearisation at rest), in ascending frequency.
 ///
 /// Solves the generalized symmetric problem through the Cholesky factor `M = L Lᵀ`:
 /// `(L⁻¹ K L⁻ᵀ) w = ω² w`, `v = L⁻ᵀ w` (faer has no generalized symmetric solver).
-pub fn linear_modes(structure: &Structure) -> Result<Vec<LinearMode>, ModesError> {
-    let n = structure.dofs();
-    let l = linalg::cholesky_lower(structure.mass().as_ref())
-        .map_err(|_| ModesError::MassNotPositiveDefinite)?;
+pub fn linear_modes<S: MechanicalSystem + ?Sized>(
+    system: &S,
+) -> Result<Vec<LinearMode>, ModesError> {
+    let n = system.dofs();
+    let (mass, stiffness) = linearised_matrices(system);
+    let l =
+        linalg::cholesky_lower(mass.as_ref()).map_err(|_| ModesError::MassNotPositiveDefinite)?;
     // A = L⁻¹ K L⁻ᵀ, built as L⁻¹ (L⁻¹ K)ᵀ since K is symmetric.
-    let mut a = structure.stiffness().clone();
+    let mut a = stiffness;
     linalg::solve_lower_in_place(l.as_ref(), &mut a);
     let mut a = a.transpose().to_owned();
     linalg::solve_lower_in_place(l.as_ref(), &mut a);
@@ -100,8 +122,8 @@ pub fn linear_modes(structure: &Structure) -> Result<Vec<LinearMode>, ModesError
             cyclic: None,
         });
     }
-    if let Some(cyclic) = structure.cyclic_symmetry() {
-        label_cyclic(&mut modes, cyclic, structure.mass());
+    if let Some(cyclic) = system.cyclic_symmetry() {
+        label_cyclic(&mut modes, cyclic, &mass);
     }
     Ok(modes)
 }

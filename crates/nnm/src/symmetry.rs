@@ -7,15 +7,16 @@
 //! mirror-odd subspace is too when `f_nl` is odd. A branch started on a cos wave therefore
 //! lives in the even subspace, and restricting the shooting unknowns to it removes the
 //! degenerate partner (the sin wave, whose Floquet multipliers sit at +1 at low energy and
-//! make the Jacobian nearly singular in a second direction, SPEC §7) from the problem exactly:
+//! make the Jacobian nearly singular in a second direction; docs/method.md, numerical traps) from
+//! the problem exactly:
 //! without it the least-squares corrector lets the branch drift onto the partner.
 //!
-//! Every property is *checked* numerically on the model (matrices entrywise, forces at sample
-//! states), so a cyclic model whose sectors are not themselves mirror-symmetric is simply not
-//! restricted.
+//! Every property is *checked* numerically on the model (the mass and the internal force at
+//! sample states), so a cyclic model whose sectors are not themselves mirror-symmetric is
+//! simply not restricted.
 
 use crate::linalg;
-use crate::model::{SecondOrderSystem, Structure};
+use crate::model::MechanicalSystem;
 use crate::modes::LinearMode;
 
 /// Whether a mode is even or odd under the mirror reflection.
@@ -30,8 +31,8 @@ pub enum Parity {
 const TOLERANCE: f64 = 1e-10;
 
 /// The dof permutation of the mirror reflection (`None` for non-cyclic structures).
-fn mirror_permutation(structure: &Structure) -> Option<Vec<usize>> {
-    let cyclic = structure.cyclic_symmetry()?;
+fn mirror_permutation<S: MechanicalSystem + ?Sized>(system: &S) -> Option<Vec<usize>> {
+    let cyclic = system.cyclic_symmetry()?;
     let (n_s, s) = (cyclic.sectors, cyclic.dofs_per_sector);
     Some(
         (0..n_s * s)
@@ -76,20 +77,20 @@ pub(crate) fn sample_states(n: usize, amplitude: f64) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// Whether the vector field is odd, `a(-x) = -a(x)` (cubic and quintic springs: yes;
+/// Whether the internal force is odd, `f(-x) = -f(x)` (cubic and quintic springs: yes;
 /// quadratic: no), checked at sample states of size `amplitude` (where the nonlinearity is
 /// significant, so the verdict does not depend on the length unit). The even part
-/// `a(x) + a(-x)` must vanish relative to the nonlinear part, estimated by `a(x) - 2 a(x/2)`
-/// (the linear part cancels in both).
-pub(crate) fn is_odd<S: SecondOrderSystem + ?Sized>(system: &S, amplitude: f64) -> bool {
+/// `f(x) + f(-x)` must vanish relative to the nonlinear part, estimated by `f(x) - 2 f(x/2)`
+/// (the linear part cancels in both). Then the vector field is odd too (`M⁻¹` is linear).
+pub(crate) fn is_odd<S: MechanicalSystem + ?Sized>(system: &S, amplitude: f64) -> bool {
     let n = system.dofs();
     sample_states(n, amplitude).into_iter().all(|x| {
         let minus: Vec<f64> = x.iter().map(|v| -v).collect();
         let half: Vec<f64> = x.iter().map(|v| 0.5 * v).collect();
         let (mut a, mut b, mut c) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        system.acceleration(&x, &mut a);
-        system.acceleration(&minus, &mut b);
-        system.acceleration(&half, &mut c);
+        system.internal_force(&x, &mut a);
+        system.internal_force(&minus, &mut b);
+        system.internal_force(&half, &mut c);
         let norm = |v: Vec<f64>| linalg::norm(&v);
         let even = norm(a.iter().zip(&b).map(|(p, q)| p + q).collect());
         let nonlinear = norm(a.iter().zip(&c).map(|(p, q)| p - 2.0 * q).collect());
@@ -97,26 +98,22 @@ pub(crate) fn is_odd<S: SecondOrderSystem + ?Sized>(system: &S, amplitude: f64) 
     })
 }
 
-/// Checks that the mirror reflection is a symmetry of the whole system; returns it.
-fn verified_mirror(structure: &Structure, amplitude: f64) -> Option<Vec<usize>> {
-    let p = mirror_permutation(structure)?;
+/// Checks that the mirror reflection is a symmetry of the whole system (`M R v = R M v` and
+/// `f_int(R x) = R f_int(x)` at sample states, which checks `K` and the nonlinear forces
+/// together); returns it.
+fn verified_mirror<S: MechanicalSystem + ?Sized>(system: &S, amplitude: f64) -> Option<Vec<usize>> {
+    let p = mirror_permutation(system)?;
     let n = p.len();
-    for m in [structure.mass(), structure.stiffness()] {
-        let scale = (0..n)
-            .flat_map(|i| (0..n).map(move |j| (i, j)))
-            .fold(0.0f64, |s, (i, j)| s.max(m[(i, j)].abs()));
-        for i in 0..n {
-            for j in 0..n {
-                if (m[(p[i], p[j])] - m[(i, j)]).abs() > TOLERANCE * scale {
-                    return None;
-                }
-            }
-        }
-    }
     for x in sample_states(n, amplitude) {
         let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-        structure.acceleration(&reflect(&p, &x), &mut a);
-        structure.acceleration(&x, &mut b);
+        system.mass().apply(&reflect(&p, &x), 1, &mut a);
+        system.mass().apply(&x, 1, &mut b);
+        let scale = b.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        if !close(&a, &reflect(&p, &b), scale) {
+            return None;
+        }
+        system.internal_force(&reflect(&p, &x), &mut a);
+        system.internal_force(&x, &mut b);
         let scale = b.iter().fold(0.0f64, |s, v| s.max(v.abs()));
         if !close(&a, &reflect(&p, &b), scale) {
             return None;
@@ -144,8 +141,8 @@ fn parity(p: &[usize], shape: &[f64]) -> Option<Parity> {
 /// symmetry, when a mode is not of pure parity, or for an odd start with a nonlinearity that
 /// is not odd. `amplitude`: a displacement size where the nonlinearity matters (the force
 /// checks are made there).
-pub fn invariant_class(
-    structure: &Structure,
+pub fn invariant_class<S: MechanicalSystem + ?Sized>(
+    structure: &S,
     modes: &[LinearMode],
     start: usize,
     amplitude: f64,
@@ -172,7 +169,7 @@ pub fn invariant_class(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{BladedDisk, PolynomialSpring, two_dof};
+    use crate::model::{BladedDisk, MechanicalSystem, PolynomialSpring, two_dof};
     use crate::modes::{StandingWave, find_mode, linear_modes};
 
     #[test]
@@ -203,10 +200,14 @@ mod tests {
                     as Box<dyn crate::model::NonlinearElement>
             })
             .collect();
-        let quadratic = Structure::new(base.mass().clone(), base.stiffness().clone(), elements)
-            .unwrap()
-            .with_cyclic_symmetry(base.cyclic_symmetry().unwrap())
-            .unwrap();
+        let quadratic = crate::model::Structure::new(
+            base.mass_matrix().clone(),
+            base.stiffness().clone(),
+            elements,
+        )
+        .unwrap()
+        .with_cyclic_symmetry(base.cyclic_symmetry().unwrap())
+        .unwrap();
         let modes = linear_modes(&quadratic).unwrap();
         let (cos, _) = find_mode(&modes, "1,5", Some(StandingWave::Cos)).unwrap();
         let (sin, _) = find_mode(&modes, "1,5", Some(StandingWave::Sin)).unwrap();

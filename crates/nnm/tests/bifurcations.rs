@@ -6,14 +6,14 @@
 
 use std::ops::ControlFlow;
 
+use nnm::Mat;
 use nnm::bifurcation::{Event, EventKind, switch_branch};
-use nnm::continuation::{Branch, Settings, Start, continue_branch};
 use nnm::floquet;
-use nnm::integrate::{DOP853, Integrator, Steps, Tolerances};
-use nnm::linalg::Mat;
+use nnm::integrate::{DOP853, Integrator, RungeKutta, Steps, Tolerances};
 use nnm::model::{BladedDisk, PolynomialSpring, Structure, duffing, two_dof};
 use nnm::modes::{StandingWave, find_mode, linear_modes};
 use nnm::shooting::JacobianMethod;
+use nnm::{Branch, Settings, Start, continue_branch};
 
 fn branch(structure: &Structure, start: &Start, settings: &Settings) -> Branch {
     continue_branch(structure, start, settings, |_| ControlFlow::Continue(())).unwrap()
@@ -51,10 +51,11 @@ fn in_phase(max_step: f64) -> (Structure, Start, Settings, Branch) {
     let structure = two_dof(0.5).unwrap();
     let modes = linear_modes(&structure).unwrap();
     let start = Start::from_linear_mode(&structure, &modes, 0, None).unwrap();
-    let settings = Settings {
-        energy_max: 100.0,
-        max_step,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.limits.energy_max = 100.0;
+        s.continuation.max_step = max_step;
+        s
     };
     let b = branch(&structure, &start, &settings);
     (structure, start, settings, b)
@@ -87,14 +88,11 @@ fn two_dof_branch_point_is_located_independently_of_the_step() {
     assert!(a.converged && b.converged);
     // The same branch point on a different problem: full period, velocities among the
     // unknowns (flow-orthogonal phase), where the crossing family is representable.
-    let general = branch(
-        &structure,
-        &start,
-        &Settings {
-            phase: nnm::shooting::PhaseCondition::FlowOrthogonal,
-            ..settings.clone()
-        },
-    );
+    let general = branch(&structure, &start, &{
+        let mut s = settings.clone();
+        s.shooting.phase = nnm::shooting::PhaseCondition::FlowOrthogonal;
+        s
+    });
     let c = of_kind(&general, EventKind::BranchPoint);
     assert_eq!(c.len(), 1);
     let gap = relative(c[0].point.energy, a.point.energy);
@@ -110,22 +108,27 @@ fn two_dof_branch_point_is_located_independently_of_the_step() {
         assert!(!branch.points[event.after + 1].floquet.stable);
     }
     // Independent check: finite-difference monodromy over the full period.
-    let fd_settings = Settings {
-        jacobian: JacobianMethod::FiniteDifference,
-        half_period: false,
-        ..settings.clone()
+    let fd_settings = {
+        let mut s = settings.clone();
+        s.shooting.jacobian = JacobianMethod::FiniteDifference;
+        s.shooting.half_period = false;
+        s
     };
     let mut shooting = start.shooting(&structure, &fd_settings);
     let u = shooting.unknowns_from_state(&a.point.z0, a.point.period);
-    let evaluation = shooting.evaluate(&u, &a.point.z0).unwrap();
+    let evaluation = shooting.evaluate_with_reference(&u, &a.point.z0).unwrap();
     assert!(evaluation.relative_residual < 1e-7);
     let monodromy = shooting.monodromy(&evaluation).unwrap();
     // All four multipliers sit near +1 here: deflate the trivial pair along the flow and the
     // family's direction rather than guess it.
     let flow = shooting.modal_coordinates(&shooting.field(&a.point.z0));
     let family = shooting.modal_coordinates(&a.state_tangent);
-    let f = floquet::analyse_deflated(&monodromy, [&flow, &family], settings.stability_tolerance)
-        .unwrap();
+    let f = floquet::analyse_deflated(
+        &monodromy,
+        [&flow, &family],
+        settings.stability.stability_tolerance,
+    )
+    .unwrap();
     let sigma = sigma_nearest(&f, 2.0);
     let offset = energy_offset(&coarse, a, sigma, 2.0);
     eprintln!(
@@ -144,14 +147,8 @@ fn state_after(structure: &Structure, z0: &[f64], duration: f64) -> Vec<f64> {
         absolute: 1e-12,
         velocity_scale: 1.0,
     };
-    Integrator::new(&DOP853, tolerances)
-        .flow(
-            structure,
-            z0,
-            duration,
-            None,
-            Steps::Adaptive { first_step: None },
-        )
+    RungeKutta::new(structure, &DOP853, tolerances)
+        .flow(z0, duration, None, Steps::Adaptive { first_step: None })
         .unwrap()
         .z
 }
@@ -161,7 +158,7 @@ fn state_after(structure: &Structure, z0: &[f64], duration: f64) -> Vec<f64> {
 fn half_wave_asymmetry(structure: &Structure, z0: &[f64], period: f64) -> f64 {
     let half = state_after(structure, z0, 0.5 * period);
     let sum: Vec<f64> = half.iter().zip(z0).map(|(a, b)| a + b).collect();
-    nnm::linalg::norm(&sum) / nnm::linalg::norm(z0)
+    norm(&sum) / norm(z0)
 }
 
 /// Issue 4: switching at the two-DOF branch point gives converged motions of another family:
@@ -177,14 +174,11 @@ fn switched_branch_is_a_new_family() {
         switch.singular_values, switch.start.phase
     );
     assert_eq!(switch.null_directions, 1);
-    let child = branch(
-        &structure,
-        &switch.start,
-        &Settings {
-            max_points: 12,
-            ..settings.clone()
-        },
-    );
+    let child = branch(&structure, &switch.start, &{
+        let mut s = settings.clone();
+        s.limits.max_points = 12;
+        s
+    });
     assert!(child.points.len() >= 5, "{} points", child.points.len());
     // The parent's frequency at energy E, interpolated in log E.
     let parent_frequency = |e: f64| {
@@ -200,7 +194,7 @@ fn switched_branch_is_a_new_family() {
     eprintln!("  parent at the event: half-wave asymmetry {parent_asymmetry:.1e}");
     assert!(parent_asymmetry < 1e-6);
     for p in &child.points {
-        assert!(p.relative_residual < settings.tolerance);
+        assert!(p.relative_residual < settings.continuation.tolerance);
         let asymmetry = half_wave_asymmetry(&structure, &p.z0, p.period);
         let off = p.energy < 100.0 && p.index > 0;
         let gap = if off {
@@ -227,9 +221,10 @@ fn duffing_backbone_has_no_events() {
     let structure = duffing(1.0, 1.0).unwrap();
     let modes = linear_modes(&structure).unwrap();
     let start = Start::from_linear_mode(&structure, &modes, 0, None).unwrap();
-    let settings = Settings {
-        frequency_shift_max: 0.5,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.limits.frequency_shift_max = 0.5;
+        s
     };
     let b = branch(&structure, &start, &settings);
     assert!(b.points.len() > 10);
@@ -246,15 +241,12 @@ fn bladed_disk_1_14_folds_and_krein_collisions_do_not_depend_on_the_step() {
     let (index, _) = find_mode(&modes, "1,14", Some(StandingWave::Cos)).unwrap();
     let start = Start::from_linear_mode(&structure, &modes, index, None).unwrap();
     let run = |max_step: f64| {
-        branch(
-            &structure,
-            &start,
-            &Settings {
-                frequency_shift_max: 0.15,
-                max_step,
-                ..Settings::default()
-            },
-        )
+        branch(&structure, &start, &{
+            let mut s = Settings::default();
+            s.limits.frequency_shift_max = 0.15;
+            s.continuation.max_step = max_step;
+            s
+        })
     };
     let (coarse, fine) = (run(0.25), run(0.15));
     for kind in [EventKind::Fold, EventKind::NeimarkSacker] {
@@ -323,10 +315,11 @@ fn period_doubling_is_located_and_switched() {
     let modes = linear_modes(&structure).unwrap();
     let start = Start::from_linear_mode(&structure, &modes, 1, None).unwrap();
     let run = |max_step: f64| {
-        let settings = Settings {
-            energy_max: 0.2,
-            max_step,
-            ..Settings::default()
+        let settings = {
+            let mut s = Settings::default();
+            s.limits.energy_max = 0.2;
+            s.continuation.max_step = max_step;
+            s
         };
         let b = branch(&structure, &start, &settings);
         (settings, b)
@@ -345,13 +338,14 @@ fn period_doubling_is_located_and_switched() {
     );
     assert!(gap < 1e-6);
     // Independent check: the finite-difference monodromy has a pair at -1 there.
-    let fd = Settings {
-        jacobian: JacobianMethod::FiniteDifference,
-        ..settings.clone()
+    let fd = {
+        let mut s = settings.clone();
+        s.shooting.jacobian = JacobianMethod::FiniteDifference;
+        s
     };
     let mut shooting = start.shooting(&structure, &fd);
     let u = shooting.unknowns_from_state(&a.point.z0, a.point.period);
-    let evaluation = shooting.evaluate(&u, &a.point.z0).unwrap();
+    let evaluation = shooting.evaluate_with_reference(&u, &a.point.z0).unwrap();
     let f = floquet::analyse(&shooting.monodromy(&evaluation).unwrap(), 1e-4).unwrap();
     let sigma = sigma_nearest(&f, -2.0);
     let offset = energy_offset(&coarse, a, sigma, -2.0);
@@ -363,24 +357,21 @@ fn period_doubling_is_located_and_switched() {
     assert!(offset < 1e-6, "{offset:.1e}");
 
     let switch = switch_branch(&structure, &start, a, &settings, 0.05, 0).unwrap();
-    let child = branch(
-        &structure,
-        &switch.start,
-        &Settings {
-            max_points: 10,
-            energy_max: f64::INFINITY,
-            ..settings.clone()
-        },
-    );
+    let child = branch(&structure, &switch.start, &{
+        let mut s = settings.clone();
+        s.limits.max_points = 10;
+        s.limits.energy_max = f64::INFINITY;
+        s
+    });
     assert!(child.points.len() >= 5);
     for p in &child.points {
-        assert!(p.relative_residual < settings.tolerance);
+        assert!(p.relative_residual < settings.continuation.tolerance);
         // Twice the parent's period near the event, ...
         let ratio = p.period / a.point.period;
         // ... and after one parent period the motion is elsewhere.
         let half = state_after(&structure, &p.z0, 0.5 * p.period);
         let mismatch: Vec<f64> = half.iter().zip(&p.z0).map(|(a, b)| a - b).collect();
-        let repeat = nnm::linalg::norm(&mismatch) / nnm::linalg::norm(&p.z0);
+        let repeat = norm(&mismatch) / norm(&p.z0);
         eprintln!(
             "  child point {}: E = {:.6}, period / parent period = {ratio:.6}, \
              ‖z(T/2) - z0‖/‖z0‖ = {repeat:.2e}",
@@ -393,4 +384,8 @@ fn period_doubling_is_located_and_switched() {
             p.index
         );
     }
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }

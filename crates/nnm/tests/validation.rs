@@ -1,5 +1,5 @@
 //! Validation of the whole chain (model → linear modes → shooting → continuation → Floquet)
-//! against exact or independent references: SPEC §3, §4 and §7.
+//! against exact or independent references: docs/method.md §11-§13.
 //!
 //! Run in the release profile: `cargo test --release -p nnm --test validation -- --nocapture`
 //! (the figures are printed with `eprintln!`).
@@ -8,13 +8,15 @@ use std::ops::ControlFlow;
 use std::sync::OnceLock;
 use std::time::Instant;
 
-use nnm::continuation::{Branch, BranchPoint, Settings, Start, StopReason, continue_branch};
+use nnm::Mat;
 use nnm::floquet::{self, DEFAULT_STABILITY_TOLERANCE};
-use nnm::linalg::Mat;
 use nnm::model::{BladedDisk, Structure, two_dof};
 use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
-use nnm::reference::{duffing_amplitude, duffing_period};
+use nnm::{Branch, BranchPoint, Settings, Start, StopReason, continue_branch};
+#[path = "../src/reference.rs"]
+mod reference;
 use nnm::shooting::{JacobianMethod, Shooting};
+use reference::{duffing_amplitude, duffing_period};
 
 // ---------------------------------------------------------------------------------------------
 // Helpers
@@ -72,13 +74,11 @@ struct BladedBranch {
 fn backbone_1_5() -> &'static BladedBranch {
     static BRANCH: OnceLock<BladedBranch> = OnceLock::new();
     BRANCH.get_or_init(|| {
-        bladed_backbone(
-            "1,5",
-            &Settings {
-                frequency_shift_max: 0.15,
-                ..Settings::default()
-            },
-        )
+        bladed_backbone("1,5", &{
+            let mut s = Settings::default();
+            s.limits.frequency_shift_max = 0.15;
+            s
+        })
     })
 }
 
@@ -116,14 +116,12 @@ fn shooting<'a>(
     jacobian: JacobianMethod,
     half_period: bool,
 ) -> Shooting<'a, Structure> {
-    start.shooting(
-        structure,
-        &Settings {
-            jacobian,
-            half_period,
-            ..settings.clone()
-        },
-    )
+    start.shooting(structure, &{
+        let mut s = settings.clone();
+        s.shooting.jacobian = jacobian;
+        s.shooting.half_period = half_period;
+        s
+    })
 }
 
 /// Monodromy matrix (modal coordinates) at a converged point, by the chosen method, from a
@@ -137,11 +135,13 @@ fn monodromy_at(
     half_period: bool,
 ) -> Mat<f64> {
     let mut s = shooting(structure, start, settings, jacobian, half_period);
-    let evaluation = s.evaluate(&point.unknowns, &point.z0).unwrap();
+    let evaluation = s
+        .evaluate_with_reference(&point.unknowns, &point.z0)
+        .unwrap();
     // The branch converged the half-period problem; its full-period residual was checked to
     // stay within 100x the tolerance.
     assert!(
-        evaluation.relative_residual < 100.0 * settings.tolerance,
+        evaluation.relative_residual < 100.0 * settings.continuation.tolerance,
         "the stored point is not converged when re-evaluated: {:.2e}",
         evaluation.relative_residual
     );
@@ -220,10 +220,11 @@ fn bladed_disk_mode_1_0_matches_duffing_reduction() {
         "linear (1,0) frequency {} vs k(1/m+1/M) = {w0}",
         mode.frequency
     );
-    let settings = Settings {
-        tolerance: 1e-9,
-        frequency_shift_max: 0.2,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.continuation.tolerance = 1e-9;
+        s.limits.frequency_shift_max = 0.2;
+        s
     };
     let (_, branch, seconds) = backbone(&structure, &modes, index, &settings);
     eprintln!(
@@ -236,7 +237,7 @@ fn bladed_disk_mode_1_0_matches_duffing_reduction() {
     assert!(shift(last, w0) >= 0.2, "reached only {}", shift(last, w0));
 
     let n_s = p.sectors as f64;
-    let mass = structure.mass();
+    let mass = &structure.mass_matrix().to_dense();
     let shape = &mode.shape;
     let (mut worst_period, mut worst_amplitude, mut worst_shape) = (0.0f64, 0.0f64, 0.0f64);
     for point in &branch.points {
@@ -318,9 +319,10 @@ fn monodromy_sensitivity_agrees_with_finite_differences() {
     // (b) the two-DOF system, in-phase mode at E ≈ 10.
     let structure = two_dof(0.5).unwrap();
     let modes = linear_modes(&structure).unwrap();
-    let settings = Settings {
-        energy_max: 10.0,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.limits.energy_max = 10.0;
+        s
     };
     let (start, branch, _) = backbone(&structure, &modes, 0, &settings);
     let point = branch.points.last().unwrap();
@@ -440,9 +442,10 @@ fn compare_monodromies(
 fn two_dof_backbones() {
     let structure = two_dof(0.5).unwrap();
     let modes = linear_modes(&structure).unwrap();
-    let settings = Settings {
-        energy_max: 100.0,
-        ..Settings::default()
+    let settings = {
+        let mut s = Settings::default();
+        s.limits.energy_max = 100.0;
+        s
     };
     let gamma = 0.5 * 0.5f64.sqrt().powi(4);
     for (index, w0) in [(0usize, 1.0f64), (1, 3f64.sqrt())] {
@@ -537,11 +540,12 @@ fn two_dof_backbones() {
                 pu.floquet.max_modulus
             );
             // Locate the stability change more finely (steps ≤ 2% of the amplitude).
-            let fine = Settings {
-                energy_max: pu.energy,
-                max_step: 0.02,
-                max_points: 5000,
-                ..Settings::default()
+            let fine = {
+                let mut s = Settings::default();
+                s.limits.energy_max = pu.energy;
+                s.continuation.max_step = 0.02;
+                s.limits.max_points = 5000;
+                s
             };
             let (_, fine_branch, _) = backbone(&structure, &modes, 0, &fine);
             assert_eq!(fine_branch.stop, StopReason::EnergyMax);
@@ -647,7 +651,7 @@ fn worst_sin_content(b: &BladedBranch) -> (f64, f64) {
         .iter()
         .map(|p| {
             (
-                sin_content(b.structure.mass(), &sin, displacement(p)),
+                sin_content(&b.structure.mass_matrix().to_dense(), &sin, displacement(p)),
                 p.energy,
             )
         })
@@ -658,13 +662,11 @@ fn worst_sin_content(b: &BladedBranch) -> (f64, f64) {
 fn backbone_1_14() -> &'static BladedBranch {
     static BRANCH: OnceLock<BladedBranch> = OnceLock::new();
     BRANCH.get_or_init(|| {
-        bladed_backbone(
-            "1,14",
-            &Settings {
-                frequency_shift_max: 0.15,
-                ..Settings::default()
-            },
-        )
+        bladed_backbone("1,14", &{
+            let mut s = Settings::default();
+            s.limits.frequency_shift_max = 0.15;
+            s
+        })
     })
 }
 
@@ -672,13 +674,11 @@ fn backbone_1_14() -> &'static BladedBranch {
 fn backbone_0_6() -> &'static BladedBranch {
     static BRANCH: OnceLock<BladedBranch> = OnceLock::new();
     BRANCH.get_or_init(|| {
-        bladed_backbone(
-            "0,6",
-            &Settings {
-                energy_max: 1000.0,
-                ..Settings::default()
-            },
-        )
+        bladed_backbone("0,6", &{
+            let mut s = Settings::default();
+            s.limits.energy_max = 1000.0;
+            s
+        })
     })
 }
 
@@ -687,13 +687,11 @@ fn backbone_0_6() -> &'static BladedBranch {
 fn backbone_0_2() -> &'static BladedBranch {
     static BRANCH: OnceLock<BladedBranch> = OnceLock::new();
     BRANCH.get_or_init(|| {
-        bladed_backbone(
-            "0,2",
-            &Settings {
-                energy_max: 1000.0,
-                ..Settings::default()
-            },
-        )
+        bladed_backbone("0,2", &{
+            let mut s = Settings::default();
+            s.limits.energy_max = 1000.0;
+            s
+        })
     })
 }
 
@@ -701,13 +699,11 @@ fn backbone_0_2() -> &'static BladedBranch {
 fn backbone_0_14() -> &'static BladedBranch {
     static BRANCH: OnceLock<BladedBranch> = OnceLock::new();
     BRANCH.get_or_init(|| {
-        bladed_backbone(
-            "0,14",
-            &Settings {
-                frequency_shift_max: 0.05,
-                ..Settings::default()
-            },
-        )
+        bladed_backbone("0,14", &{
+            let mut s = Settings::default();
+            s.limits.frequency_shift_max = 0.05;
+            s
+        })
     })
 }
 
@@ -858,7 +854,7 @@ fn nonsimilar_modes_change_shape() {
     let b02 = backbone_0_2();
     let b014 = backbone_0_14();
     let angles = |b: &BladedBranch, q: &BranchPoint| {
-        let mass = b.structure.mass();
+        let mass = &b.structure.mass_matrix().to_dense();
         let sin = sin_modes(&b.modes);
         let shape = &b.modes[b.index].shape;
         let x = displacement(q);

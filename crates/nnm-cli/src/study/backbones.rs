@@ -8,9 +8,9 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Result, bail};
-use nnm::continuation::{Branch, BranchPoint, Settings};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, StandingWave};
+use nnm::{Branch, BranchPoint, Settings};
 use nnm_io::job::BranchJob;
 
 use super::StudyOptions;
@@ -85,8 +85,6 @@ pub(super) fn compute(
             mode: label.clone(),
             from_event: None,
             pattern: None,
-            energy_start: None,
-            symmetry: true,
             settings: settings.clone(),
         })
         .collect();

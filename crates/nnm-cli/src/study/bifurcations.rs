@@ -9,10 +9,9 @@ use std::sync::Mutex;
 use anyhow::{Context, Result, anyhow};
 use nnm::analysis::sample_motion;
 use nnm::bifurcation::{Event, EventKind, Switch, switch_branch};
-use nnm::continuation::{Branch, Settings};
-use nnm::linalg;
-use nnm::model::{SecondOrderSystem, Structure};
+use nnm::model::{MechanicalSystem, Structure};
 use nnm::modes::{LinearMode, StandingWave, find_mode};
+use nnm::{Branch, Settings};
 use nnm_io::job::BranchJob;
 use nnm_io::output::SwitchedFrom;
 
@@ -118,14 +117,14 @@ fn pair_content(
     period: f64,
 ) -> Result<PairContent> {
     let n = structure.dofs();
-    let mass_times = |v: &[f64]| linalg::times(structure.mass().as_ref(), v);
+    let mass_times = |v: &[f64]| structure.mass_matrix().times(v);
     let (mc, ms) = (mass_times(&cos.shape), mass_times(&sin.shape));
     let states = sample_motion(structure, z0, period, 64, 1e-10)?;
     let (mut sin_power, mut power, mut momentum) = (0.0, 0.0, 0.0);
     for z in &states[..states.len() - 1] {
         let (x, v) = z.split_at(n);
-        let (qc, qs) = (linalg::dot(&mc, x), linalg::dot(&ms, x));
-        let (vc, vs) = (linalg::dot(&mc, v), linalg::dot(&ms, v));
+        let (qc, qs) = (dot(&mc, x), dot(&ms, x));
+        let (vc, vs) = (dot(&mc, v), dot(&ms, v));
         sin_power += qs * qs;
         power += qc * qc + qs * qs;
         momentum += qc * vs - qs * vc;
@@ -146,12 +145,12 @@ fn strongest_other_mode<'m>(
     z0: &[f64],
 ) -> (&'m LinearMode, f64) {
     let (x, v) = z0.split_at(structure.dofs());
-    let mass_times = |v: &[f64]| linalg::times(structure.mass().as_ref(), v);
+    let mass_times = |v: &[f64]| structure.mass_matrix().times(v);
     let (mx, mv) = (mass_times(x), mass_times(v));
     let energies: Vec<f64> = modes
         .iter()
         .map(|m| {
-            let (q, w) = (linalg::dot(&m.shape, &mx), linalg::dot(&m.shape, &mv));
+            let (q, w) = (dot(&m.shape, &mx), dot(&m.shape, &mv));
             0.5 * (m.frequency * m.frequency * q * q + w * w)
         })
         .collect();
@@ -246,16 +245,16 @@ fn switch_at_first_branch_point<'a>(
         mode: String::new(),
         from_event: None,
         pattern: None,
-        energy_start: None,
-        symmetry: false,
-        settings: Settings {
-            frequency_shift_max: SWITCHED_SHIFT,
-            energy_max: f64::INFINITY,
-            max_points: 60,
-            ..settings.clone()
+        settings: {
+            let mut s = settings.clone();
+            s.start.symmetry = false;
+            s.limits.frequency_shift_max = SWITCHED_SHIFT;
+            s.limits.energy_max = f64::INFINITY;
+            s.limits.max_points = 60;
+            s
         },
     };
-    let phase = phase_name(switch.start.phase.unwrap_or(settings.phase));
+    let phase = phase_name(switch.start.phase.unwrap_or(settings.shooting.phase));
     let mut info = parent.info.clone();
     info.name = job.name.clone();
     info.symmetry = switch.start.symmetry;
@@ -318,4 +317,8 @@ fn switch_at_first_branch_point<'a>(
         points,
         partner_frequency,
     }))
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }

@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use anyhow::Result;
-use nnm::continuation::Branch;
-use nnm::model::{SecondOrderSystem, Structure};
+use nnm::Branch;
+use nnm::model::{MechanicalSystem, Structure};
 use nnm::modes::{LinearMode, find_mode};
 use nnm_plot::{FrequencyEnergyPlot, Line, LinePlot, Marker, PlotGrid, Series, SeriesPoint};
 

@@ -8,9 +8,9 @@ use std::ops::ControlFlow;
 use std::path::Path;
 
 use anyhow::{Result, anyhow};
-use nnm::continuation::{Branch, BranchPoint, Settings};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, find_mode};
+use nnm::{Branch, BranchPoint, Settings};
 use nnm_io::job::BranchJob;
 
 use super::backbones::{frequency_at, single_branch};
@@ -52,14 +52,13 @@ pub(super) fn check(
         mode: "1,12".into(),
         from_event: None,
         pattern: None,
-        energy_start: None,
-        symmetry: true,
-        settings: Settings {
-            energy_max: 3.0 * e_junction,
-            frequency_shift_max: f64::INFINITY,
-            max_step: REFERENCE_MAX_STEP,
-            events: false,
-            ..settings.clone()
+        settings: {
+            let mut s = settings.clone();
+            s.limits.energy_max = 3.0 * e_junction;
+            s.limits.frequency_shift_max = f64::INFINITY;
+            s.continuation.max_step = REFERENCE_MAX_STEP;
+            s.stability.events = false;
+            s
         },
     };
     let reference = single_branch(structure, modes, &job, out, |_| ControlFlow::Continue(()))?;

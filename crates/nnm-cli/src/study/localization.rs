@@ -2,9 +2,9 @@
 //! by point, and the motion where it is most concentrated. Numbers only.
 
 use anyhow::{Result, anyhow};
+use nnm::Branch;
 use nnm::analysis::{participation, sample_motion, sector_energies, top_share};
-use nnm::continuation::Branch;
-use nnm::model::{SecondOrderSystem, Structure};
+use nnm::model::{MechanicalSystem, Structure};
 use nnm::modes::{LinearMode, find_mode};
 
 use super::SAMPLES;

@@ -3,7 +3,7 @@
 //! energies. Numbers only.
 
 use nnm::analysis::shape_angle;
-use nnm::model::{SecondOrderSystem, Structure};
+use nnm::model::{MechanicalSystem, Structure};
 use nnm::modes::LinearMode;
 
 use super::backbones::{Backbones, frequency_at};

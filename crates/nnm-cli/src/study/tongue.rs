@@ -10,10 +10,10 @@ use std::time::Instant;
 
 use anyhow::{Result, anyhow, bail};
 use nnm::analysis::{harmonic_amplitudes, sample_motion};
-use nnm::continuation::{BranchPoint, BranchStats, Settings};
-use nnm::model::{SecondOrderSystem, Structure};
+use nnm::model::{MechanicalSystem, Structure};
 use nnm::modes::{LinearMode, find_mode};
 use nnm::shooting::JacobianMethod;
+use nnm::{BranchPoint, BranchStats, Settings};
 use nnm_io::job::BranchJob;
 
 use super::SAMPLES;
@@ -192,18 +192,17 @@ pub(super) fn continue_tongue(
         mode: "0,6".into(),
         from_event: None,
         pattern: None,
-        energy_start: None,
-        symmetry: true,
-        settings: Settings {
-            energy_max: f64::INFINITY,
-            frequency_shift_max: f64::INFINITY,
-            max_points: 1000,
-            max_step: TONGUE_MAX_STEP,
-            jacobian,
+        settings: {
+            let mut s = settings.clone();
+            s.limits.energy_max = f64::INFINITY;
+            s.limits.frequency_shift_max = f64::INFINITY;
+            s.limits.max_points = 1000;
+            s.continuation.max_step = TONGUE_MAX_STEP;
+            s.shooting.jacobian = jacobian;
             // The tongue's own fold and junction analysis follows; the cost comparison wants
             // the same work from both Jacobians.
-            events: false,
-            ..settings.clone()
+            s.stability.events = false;
+            s
         },
     };
     let mut points: Vec<TonguePoint> = Vec::new();

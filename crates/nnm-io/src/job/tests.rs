@@ -1,4 +1,5 @@
 use super::*;
+use nnm::shooting::{JacobianMethod, PhaseCondition};
 
 fn parse(text: &str) -> Result<Job, JobError> {
     parse_job(text, Path::new("job.toml"))
@@ -36,9 +37,12 @@ fn spec_example_parses() {
     assert_eq!(job.branches.len(), 1);
     let b = &job.branches[0];
     assert_eq!((b.name.as_str(), b.mode.as_str()), ("mode-1-5", "1,5"));
-    assert_eq!(b.settings.energy_max, 10.0);
-    assert_eq!(b.settings.jacobian, JacobianMethod::FiniteDifference);
-    use nnm::model::SecondOrderSystem;
+    assert_eq!(b.settings.limits.energy_max, 10.0);
+    assert_eq!(
+        b.settings.shooting.jacobian,
+        JacobianMethod::FiniteDifference
+    );
+    use nnm::MechanicalSystem;
     assert_eq!(job.structure.dofs(), 60);
 }
 
@@ -62,11 +66,11 @@ fn settings_section_gives_defaults_that_branches_override() {
         "#,
     )
     .unwrap();
-    assert_eq!(job.branches[0].settings.tolerance, 1e-10);
-    assert_eq!(job.branches[0].settings.energy_max, 5.0);
-    assert_eq!(job.branches[1].settings.energy_max, 7.0);
+    assert_eq!(job.branches[0].settings.continuation.tolerance, 1e-10);
+    assert_eq!(job.branches[0].settings.limits.energy_max, 5.0);
+    assert_eq!(job.branches[1].settings.limits.energy_max, 7.0);
     assert_eq!(
-        job.branches[1].settings.phase,
+        job.branches[1].settings.shooting.phase,
         PhaseCondition::FlowOrthogonal
     );
 }
@@ -174,7 +178,7 @@ fn matrix_market_files_resolve_relative_to_the_job() {
     )
     .unwrap();
     let job = load_job(&job_path).unwrap();
-    assert_eq!(job.structure.stiffness()[(0, 1)], -1.0);
-    assert_eq!(job.structure.stiffness()[(1, 1)], 2.0);
+    assert_eq!(job.structure.stiffness().get(0, 1), -1.0);
+    assert_eq!(job.structure.stiffness().get(1, 1), 2.0);
     std::fs::remove_dir_all(&dir).ok();
 }

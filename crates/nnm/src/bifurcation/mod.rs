@@ -22,13 +22,18 @@
 //! - Krein collision: `(σ₁ - σ₂)²` for the two colliding invariants, positive while they are
 //!   real and distinct, negative (`-4 (Im σ)²`) once they are complex conjugates.
 
+mod location;
 mod switching;
 
+pub use location::BifurcationDetector;
 pub use switching::{Switch, SwitchError, switch_branch};
 
-use crate::continuation::BranchPoint;
+#[cfg(test)]
+use location::{bisect, illinois};
+
 use crate::floquet::{Floquet, PairKind};
 use crate::linalg::Complex;
+use crate::shooting::BranchPoint;
 
 /// The kind of a located event.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -305,97 +310,6 @@ pub(crate) fn multiplicity(crossing: Crossing, point: &BranchPoint) -> usize {
         .filter(|p| p.kind != PairKind::Complex && (p.trace().0 - target).abs() < 1e-4)
         .count()
         .max(1)
-}
-
-/// The zero of `f` on `[0, h]` given `f(0) = f0` and `f(h) = fh` of opposite signs, by the
-/// Illinois variant of regula falsi (superlinear, and the bracket always shrinks). `f` returns
-/// its value and whatever the caller wants to keep from the last trial. Stops when the bracket
-/// or the last move is below `tolerance` (the second is what ends it once `f` is down to its
-/// round-off, where the signs no longer shrink the bracket), or after `max_trials`.
-pub(crate) fn illinois<T>(
-    h: f64,
-    f0: f64,
-    fh: f64,
-    tolerance: f64,
-    max_trials: usize,
-    mut f: impl FnMut(f64) -> Result<(f64, T), String>,
-) -> Result<Located<T>, String> {
-    let (mut a, mut fa, mut b, mut fb) = (0.0, f0, h, fh);
-    for trial in 1..=max_trials {
-        let mut s = b - fb * (b - a) / (fb - fa);
-        let (lo, hi) = (a.min(b), a.max(b));
-        if !(s > lo && s < hi) {
-            s = 0.5 * (a + b);
-        }
-        let (fs, payload) = f(s)?;
-        let moved = (s - b).abs();
-        if fs * fb < 0.0 {
-            (a, fa) = (b, fb);
-        } else {
-            fa *= 0.5;
-        }
-        (b, fb) = (s, fs);
-        let width = (b - a).abs();
-        if fs == 0.0 || width < tolerance || moved < tolerance || trial == max_trials {
-            return Ok(Located {
-                arclength: s,
-                payload,
-                uncertainty: if fs == 0.0 { 0.0 } else { width.min(moved) },
-                trials: trial,
-                // A root drives `f` to its round-off; a jump of the test function (a sign
-                // change without a zero) leaves it at the size of the jump.
-                // It must also have stopped on its tolerance, not on the trial limit.
-                converged: fs.abs() <= 1e-3 * f0.abs().max(fh.abs())
-                    && (fs == 0.0 || width < tolerance || moved < tolerance),
-            });
-        }
-    }
-    Err("no trial was made".into())
-}
-
-/// Bisection of `[0, h]` on a yes/no question whose answer is "no" at 0 and "yes" at `h`:
-/// returns the first "yes" trial once the bracket is narrower than `tolerance`.
-pub(crate) fn bisect<T>(
-    h: f64,
-    tolerance: f64,
-    max_trials: usize,
-    mut is_past: impl FnMut(f64) -> Result<(bool, T), String>,
-) -> Result<Located<T>, String> {
-    let (mut a, mut b) = (0.0, h);
-    let mut best = None;
-    for trial in 1..=max_trials {
-        let s = 0.5 * (a + b);
-        let (past, payload) = is_past(s)?;
-        if past {
-            b = s;
-            best = Some((s, payload));
-        } else {
-            a = s;
-        }
-        if (b - a).abs() < tolerance || trial == max_trials {
-            let Some((arclength, payload)) = best else {
-                return Err("the change was not seen inside the step".into());
-            };
-            return Ok(Located {
-                arclength,
-                payload,
-                uncertainty: (b - a).abs(),
-                trials: trial,
-                // Placed where the pattern of the multipliers changes (to the bracket), not
-                // at a zero of a test function.
-                converged: false,
-            });
-        }
-    }
-    Err("no trial was made".into())
-}
-
-pub(crate) struct Located<T> {
-    pub arclength: f64,
-    pub payload: T,
-    pub uncertainty: f64,
-    pub trials: usize,
-    pub converged: bool,
 }
 
 #[cfg(test)]

@@ -21,12 +21,12 @@
 //! recorded in the returned [`Start::phase`].
 
 use crate::bifurcation::{Event, EventKind};
-use crate::continuation::{Settings, Start};
 use crate::linalg::{self, Mat};
-use crate::model::SecondOrderSystem;
-use crate::shooting::{PhaseCondition, Shooting};
+use crate::model::MechanicalSystem;
+use crate::settings::Settings;
+use crate::shooting::{PhaseCondition, Shooting, Start};
 
-struct Candidate<'a, S: SecondOrderSystem + ?Sized> {
+struct Candidate<'a, S: MechanicalSystem + ?Sized> {
     start: Start,
     shooting: Shooting<'a, S>,
     u_star: Vec<f64>,
@@ -74,7 +74,7 @@ const NULL_THRESHOLD: f64 = 1e-4;
 /// degenerate event (several null directions beside the parent's tangent, e.g. where a
 /// symmetry doubles the critical pair) `direction` picks one (0-based, in the order of the
 /// singular values); each may lead to a different family.
-pub fn switch_branch<S: SecondOrderSystem + ?Sized>(
+pub fn switch_branch<S: MechanicalSystem + ?Sized>(
     system: &S,
     parent: &Start,
     event: &Event,
@@ -111,7 +111,7 @@ pub fn switch_branch<S: SecondOrderSystem + ?Sized>(
         let mut shooting = child.shooting(system, settings);
         let u_star = shooting.unknowns_from_state(&point.z0, child.period);
         let evaluation = shooting
-            .evaluate(&u_star, &point.z0)
+            .evaluate_with_reference(&u_star, &point.z0)
             .map_err(|e| SwitchError::Evaluation(e.to_string()))?;
         let (values, vectors) = linalg::right_singular(evaluation.jacobian.as_ref())
             .map_err(|e| SwitchError::Evaluation(e.to_string()))?;
@@ -129,7 +129,7 @@ pub fn switch_branch<S: SecondOrderSystem + ?Sized>(
             null_count,
         })
     };
-    let configured = parent.phase.unwrap_or(settings.phase);
+    let configured = parent.phase.unwrap_or(settings.shooting.phase);
     let mut candidate = attempt(configured)?;
     if candidate.null_count < 2 && configured == PhaseCondition::ZeroVelocity {
         candidate = attempt(PhaseCondition::FlowOrthogonal)?;

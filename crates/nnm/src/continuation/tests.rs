@@ -1,239 +1,203 @@
+//! The continuation machinery on problems with exact answers, independent of shooting.
+
 use super::*;
-use crate::model::duffing;
-use crate::modes::linear_modes;
-use crate::reference::{duffing_amplitude, duffing_period};
+use crate::settings::ContinuationSettings;
 
-fn backbone(structure: &Structure, mode: usize, settings: &Settings) -> Branch {
-    let modes = linear_modes(structure).unwrap();
-    let start = Start::from_linear_mode(structure, &modes, mode, None).unwrap();
-    continue_branch(structure, &start, settings, |_| ControlFlow::Continue(())).unwrap()
+/// `F(x, y) = x² + y² - 1`: the unit circle, one row and two unknowns.
+struct Circle {
+    evaluations: usize,
+    /// Fail every evaluation with `y` above this (to exercise the minimum-step stop).
+    wall: f64,
 }
 
-/// Worst relative frequency error of a Duffing branch against the exact elliptic period.
-fn duffing_error(branch: &Branch, w0: f64, alpha: f64) -> f64 {
-    branch
-        .points
-        .iter()
-        .map(|p| {
-            let exact = duffing_period(w0, alpha, duffing_amplitude(w0, alpha, p.energy));
-            (p.period - exact).abs() / exact
+#[derive(Debug)]
+struct Failed;
+impl std::fmt::Display for Failed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "outside the allowed region")
+    }
+}
+impl std::error::Error for Failed {}
+
+struct CircleLinearization {
+    residual: [f64; 1],
+    gradient: [f64; 2],
+}
+
+impl Linearization for CircleLinearization {
+    fn residual(&self) -> &[f64] {
+        &self.residual
+    }
+    fn relative_residual(&self) -> f64 {
+        self.residual[0].abs()
+    }
+    fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
+        // [g₀ g₁; b₀ b₁] x = [r; c] by Cramer's rule.
+        let [g0, g1] = self.gradient;
+        let det = g0 * border[1] - g1 * border[0];
+        vec![
+            (rhs[0] * border[1] - g1 * border_rhs) / det,
+            (g0 * border_rhs - border[0] * rhs[0]) / det,
+        ]
+    }
+}
+
+impl ContinuationProblem for Circle {
+    type Evaluation = CircleLinearization;
+    type Point = (f64, f64);
+    type Error = Failed;
+    fn dimension(&self) -> usize {
+        2
+    }
+    fn evaluate(&mut self, u: &[f64]) -> Result<CircleLinearization, Failed> {
+        self.evaluations += 1;
+        if u[1] > self.wall {
+            return Err(Failed);
+        }
+        Ok(CircleLinearization {
+            residual: [u[0] * u[0] + u[1] * u[1] - 1.0],
+            gradient: [2.0 * u[0], 2.0 * u[1]],
         })
-        .fold(0.0, f64::max)
+    }
+    fn point(
+        &mut self,
+        solution: &Solution,
+        _: &CircleLinearization,
+        _: Detail,
+    ) -> Result<(f64, f64), Failed> {
+        Ok((solution.u[0], solution.u[1]))
+    }
+    fn amplitude(&self, _u: &[f64]) -> f64 {
+        1.0
+    }
 }
 
-/// The sharpest test of the whole chain (SPEC §4): Duffing frequency–energy against the exact
-/// elliptic-integral period, at every point from the linear limit to +55% frequency, for two
-/// parameter sets and both phase conditions.
-#[test]
-fn duffing_backbone_matches_exact_period() {
-    for (w0, alpha) in [(1.0, 1.0), (2.0, 0.3)] {
-        for phase in [PhaseCondition::ZeroVelocity, PhaseCondition::FlowOrthogonal] {
-            let settings = Settings {
-                tolerance: 1e-9,
-                frequency_shift_max: 0.55,
-                phase,
-                ..Settings::default()
-            };
-            let structure = duffing(w0, alpha).unwrap();
-            let branch = backbone(&structure, 0, &settings);
-            assert_eq!(branch.stop, StopReason::FrequencyShiftMax, "{phase:?}");
-            let shifts: Vec<f64> = branch
-                .points
-                .iter()
-                .map(|p| p.frequency / w0 - 1.0)
-                .collect();
-            // The branch passes the 1%, 10% and 50% marks with points on both sides.
-            for mark in [0.01, 0.1, 0.5] {
-                assert!(shifts.iter().any(|&s| s < mark) && shifts.iter().any(|&s| s > mark));
+/// Sign changes of `x`, located by bisection on trial points of the segment.
+struct CrossesYAxis;
+
+impl EventDetector<Circle> for CrossesYAxis {
+    type Event = (f64, f64);
+    fn detect(&mut self, segment: &mut Segment<'_, Circle>) -> Vec<(f64, f64)> {
+        let (a, b) = (segment.previous().1.0, segment.next().1.0);
+        if a * b >= 0.0 {
+            return Vec::new();
+        }
+        let (mut lo, mut hi) = (0.0, segment.length());
+        let mut found = (f64::NAN, f64::NAN);
+        for _ in 0..50 {
+            let mid = 0.5 * (lo + hi);
+            found = segment.point_at(mid, Detail::Full, 1e-2).unwrap();
+            if found.0 * a > 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
             }
-            let error = duffing_error(&branch, w0, alpha);
-            assert!(
-                error < 1e-7,
-                "w0={w0} a={alpha} {phase:?}: max relative error {error:.2e}"
-            );
-            // Single dof: the only multipliers are the trivial pair.
-            assert!(branch.points.iter().all(|p| p.floquet.stable));
+        }
+        segment.add_location_steps(50);
+        vec![found]
+    }
+}
+
+fn settings() -> ContinuationSettings {
+    ContinuationSettings {
+        tolerance: 1e-12,
+        ..ContinuationSettings::default()
+    }
+}
+
+/// Every point lies on the circle, the branch keeps its direction (counter-clockwise, set by
+/// the pin), goes all the way round, and each crossing of the y axis is located at
+/// (0, ±1) by trial points corrected on the segment.
+#[test]
+fn follows_the_unit_circle_and_locates_axis_crossings() {
+    let mut circle = Circle {
+        evaluations: 0,
+        wall: f64::INFINITY,
+    };
+    let mut continuation = Continuation::new(
+        &mut circle,
+        vec![0.95, -0.2],
+        &[1.0, 0.0],
+        &settings(),
+        CrossesYAxis,
+    )
+    .unwrap();
+    let (mut points, mut events) = (Vec::new(), Vec::new());
+    let mut angle = 0.0f64;
+    while angle < 2.2 * std::f64::consts::PI {
+        match continuation.next().unwrap().unwrap() {
+            Item::Point((x, y)) => {
+                assert!(
+                    (x * x + y * y - 1.0).abs() < 1e-12,
+                    "({x}, {y}) off the circle"
+                );
+                if let Some(&(px, py)) = points.last() {
+                    let turn = f64::atan2(px * y - py * x, px * x + py * y);
+                    assert!(turn > 0.0 && turn < 0.5, "turned by {turn}");
+                    angle += turn;
+                }
+                points.push((x, y));
+            }
+            Item::Event(e) => events.push(e),
         }
     }
+    let stats = continuation.stats();
+    assert_eq!(stats.points, points.len());
+    assert!(stats.location_steps >= 100);
+    // The first corrector holds the pinned component (x) at its guess.
+    assert_eq!(points[0].0, 0.95);
+    assert!((points[0].1 + (1.0f64 - 0.95 * 0.95).sqrt()).abs() < 1e-12);
+    assert_eq!(events.len(), 2, "{events:?}");
+    assert!(events[0].0.abs() < 1e-10 && (events[0].1 - 1.0).abs() < 1e-10);
+    assert!(events[1].0.abs() < 1e-10 && (events[1].1 + 1.0).abs() < 1e-10);
 }
 
-/// A job asking 1e-10 gets frequencies right to ~1e-9 or better (the tolerance drives the
-/// integrator), and a loose one stays within its own order of magnitude.
+/// A problem that cannot be evaluated beyond a wall ends with `StepTooSmall` after halving
+/// the step down to the minimum, and the iterator is then exhausted.
 #[test]
-fn accuracy_follows_requested_tolerance() {
-    for tolerance in [1e-6, 1e-10] {
-        let settings = Settings {
-            tolerance,
-            frequency_shift_max: 0.3,
-            ..Settings::default()
-        };
-        let branch = backbone(&duffing(1.0, 1.0).unwrap(), 0, &settings);
-        let error = duffing_error(&branch, 1.0, 1.0);
-        assert!(
-            error < 10.0 * tolerance,
-            "tolerance {tolerance}: error {error:.2e}"
-        );
-    }
-}
-
-/// Units must not matter (review finding): `x → x/L` turns `x'' + x + x³ = 0` into
-/// `x'' + x + L² x³ = 0`, and `t → t/τ` turns it into `x'' + τ⁻² x + τ⁻² x³ = 0`. The rescaled
-/// problems must be followed with the same number of points to the same relative accuracy
-/// (before the amplitude unit and the weighted residual, cubic = 1e8 crawled for 500 points
-/// to +0.03%, and ω0 = 1e-3 lost three digits of accuracy).
-#[test]
-fn continuation_is_independent_of_length_and_time_units() {
-    let settings = Settings {
-        tolerance: 1e-9,
-        frequency_shift_max: 0.5,
-        ..Settings::default()
+fn ends_at_the_minimum_step_when_the_corrector_keeps_failing() {
+    let mut circle = Circle {
+        evaluations: 0,
+        wall: 0.5,
     };
-    let reference = backbone(&duffing(1.0, 1.0).unwrap(), 0, &settings);
-    for (w0, alpha) in [(1.0, 1e8), (1.0, 1e-6), (1e-3, 1e-6), (1e3, 1e6)] {
-        let branch = backbone(&duffing(w0, alpha).unwrap(), 0, &settings);
-        assert_eq!(
-            branch.stop,
-            StopReason::FrequencyShiftMax,
-            "w0={w0} a={alpha}"
-        );
-        // Round-off decides a few Newton-iteration counts near the tolerance, so the step
-        // sequences may differ slightly; the bug this guards against took 20x more points.
-        assert!(
-            branch.points.len().abs_diff(reference.points.len()) <= reference.points.len() / 5,
-            "w0={w0} a={alpha}: {} points vs {}",
-            branch.points.len(),
-            reference.points.len()
-        );
-        let error = duffing_error(&branch, w0, alpha);
-        assert!(
-            error < 1e-8,
-            "w0={w0} a={alpha}: max relative error {error:.2e}"
-        );
-    }
-}
-
-/// A free chain (rigid mode) whose cubic spring ties dof 0 to ground: the rigid mode is not a
-/// symmetry of the nonlinear system and must stay among the unknowns (review finding: the
-/// first point stalled at a residual of 1.3e-7). The branch of the elastic mode converges.
-#[test]
-fn rigid_mode_coupled_by_a_grounded_spring_is_kept() {
-    use crate::linalg::Mat;
-    use crate::model::{NonlinearElement, PolynomialSpring};
-    let structure = Structure::new(
-        Mat::<f64>::identity(2, 2),
-        Mat::from_fn(2, 2, |i, j| if i == j { 1.0 } else { -1.0 }),
-        vec![Box::new(PolynomialSpring::cubic(0, None, 0.5)) as Box<dyn NonlinearElement>],
+    let mut continuation = Continuation::new(
+        &mut circle,
+        vec![0.95, -0.2],
+        &[1.0, 0.0],
+        &settings(),
+        NoEvents,
     )
     .unwrap();
-    let modes = linear_modes(&structure).unwrap();
-    assert!(modes[0].rigid);
-    let start = Start::from_linear_mode(&structure, &modes, 1, None).unwrap();
-    assert_eq!(start.unknown_columns, 2);
-    let settings = Settings {
-        energy_max: 1.0,
-        ..Settings::default()
+    let mut last = (0.0, 0.0);
+    let error = loop {
+        match continuation.next().unwrap() {
+            Ok(Item::Point(p)) => last = p,
+            Ok(Item::Event(e)) => match e {},
+            Err(e) => break e,
+        }
     };
-    let branch = continue_branch(&structure, &start, &settings, |_| ControlFlow::Continue(()));
-    let branch = branch.unwrap();
-    assert_eq!(branch.stop, StopReason::EnergyMax);
-    // The Floquet analysis covers the whole 4-dimensional state space.
-    assert_eq!(branch.points[0].floquet.multipliers.len(), 4);
+    assert!(
+        matches!(error, ContinuationError::StepTooSmall(_)),
+        "{error}"
+    );
+    assert!(continuation.next().is_none());
+    assert!(last.1 <= 0.5 && last.1 > 0.5 - 1e-3, "stopped at {last:?}");
 }
 
-/// Review finding: at the default step, half-period shooting once jumped over the 3:1 tongue
-/// of the two-DOF in-phase branch (a 7-iteration corrector landed on a neighbouring branch
-/// with a parallel tangent). With slow or far-off correctors rejected, full- and half-period
-/// shooting follow the same tongue: the same highest frequency on the way to E = 1e4.
+/// A zero first guess or a pin without any component is refused before anything is solved.
 #[test]
-fn two_dof_in_phase_branch_follows_its_tongue_with_either_formulation() {
-    let structure = crate::model::two_dof(0.5).unwrap();
-    let highest = |half_period: bool| {
-        let settings = Settings {
-            energy_max: 1e4,
-            half_period,
-            ..Settings::default()
-        };
-        let branch = backbone(&structure, 0, &settings);
-        assert_eq!(branch.stop, StopReason::EnergyMax);
-        branch
-            .points
-            .iter()
-            .map(|p| p.frequency)
-            .fold(0.0, f64::max)
+fn refuses_a_degenerate_start() {
+    let mut circle = Circle {
+        evaluations: 0,
+        wall: f64::INFINITY,
     };
-    let (half, full) = (highest(true), highest(false));
-    assert!(half > 1.40, "the tongue peaks near 1.408 rad/s; got {half}");
-    assert!((half - full).abs() < 1e-3, "half {half} vs full {full}");
-}
-
-/// Review finding: oddness was judged on the total acceleration at unit-size states, so a small
-/// even (quadratic) term went unnoticed when lengths were in small units, half-period shooting
-/// was used on a motion that is not half-wave symmetric, and the first point failed. Here the
-/// two-DOF system with a quadratic term, lengths scaled by 1e13: oddness is now judged at the
-/// amplitude where the nonlinearity matters, against the nonlinear part.
-#[test]
-fn even_nonlinearity_in_small_units_disables_half_period_shooting() {
-    use crate::linalg::Mat;
-    use crate::model::{NonlinearElement, PolynomialSpring};
-    let (quadratic, cubic) = (0.3 * 1e-13, 0.5 * 1e-26);
-    let structure = Structure::new(
-        Mat::<f64>::identity(2, 2),
-        Mat::from_fn(2, 2, |i, j| if i == j { 2.0 } else { -1.0 }),
-        vec![
-            Box::new(PolynomialSpring::cubic(0, None, cubic)) as Box<dyn NonlinearElement>,
-            Box::new(PolynomialSpring::new(0, None, quadratic, 2)),
-        ],
-    )
-    .unwrap();
-    let settings = Settings {
-        max_points: 15,
-        ..Settings::default()
-    };
-    let branch = backbone(&structure, 0, &settings);
-    assert_eq!(branch.points.len(), 15);
-    assert!(branch.points.iter().all(|p| p.full_period_residual < 1e-7));
-}
-
-/// Review finding: without the symmetry restriction, the (1,5) partner pair sits within 1e-5
-/// of +1, closer than the numerically split trivial pair, and the finite-difference run
-/// reported the wrong pair as trivial (max modulus 1.00000004 vs 1.0000030 by sensitivity).
-/// With the trivial pair deflated along g(z0) and the family tangent, both Jacobians agree.
-#[test]
-fn floquet_verdict_does_not_depend_on_the_jacobian_near_a_degenerate_pair() {
-    use crate::model::BladedDisk;
-    use crate::modes::find_mode;
-    let structure = BladedDisk::default().build().unwrap();
-    let modes = linear_modes(&structure).unwrap();
-    let (index, _) = find_mode(&modes, "1,5", None).unwrap();
-    let start = Start::from_linear_mode(&structure, &modes, index, None)
-        .unwrap()
-        .unrestricted();
-    let first = |jacobian| {
-        let settings = Settings {
-            max_points: 1,
-            jacobian,
-            ..Settings::default()
-        };
-        let branch =
-            continue_branch(&structure, &start, &settings, |_| ControlFlow::Continue(())).unwrap();
-        branch.points[0].floquet.clone()
-    };
-    let sensitivity = first(JacobianMethod::Sensitivity);
-    let finite = first(JacobianMethod::FiniteDifference);
-    assert!(
-        (sensitivity.max_modulus - finite.max_modulus).abs() < 1e-6,
-        "{} vs {}",
-        sensitivity.max_modulus,
-        finite.max_modulus
+    let zero_pin = Continuation::new(
+        &mut circle,
+        vec![1.0, 0.0],
+        &[0.0, 3.0],
+        &settings(),
+        NoEvents,
     );
-    assert!(
-        sensitivity.max_modulus > 1.0 + 1e-6,
-        "{}",
-        sensitivity.max_modulus
-    );
-    assert!(
-        sensitivity.reciprocity_defect < 1e-5,
-        "{}",
-        sensitivity.reciprocity_defect
-    );
+    assert!(matches!(zero_pin, Err(ContinuationError::FirstPoint(_))));
+    assert_eq!(circle.evaluations, 0);
 }

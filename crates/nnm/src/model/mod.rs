@@ -1,76 +1,78 @@
-//! The mechanical model: `M x'' + K x + f_nl(x) = 0` (SPEC §1).
+//! The mechanical model `M x'' + f_int(x) = 0`, `f_int(x) = K x + f_nl(x)` (docs/method.md
+//! eq. (1)), in the form finite-element users have it.
 //!
-//! Two small traits are the plug-in points:
-//! - [`NonlinearElement`]: one nonlinear restoring force law (force, tangent, potential).
-//!   Put elements in a [`Structure`] with your own `M` and `K`.
-//! - [`SecondOrderSystem`]: what the integrator needs from *any* conservative system
-//!   (acceleration, its tangent applied to a block of directions, energy). [`Structure`]
-//!   implements it with dense or compressed-row operators; a sparse finite-element model or a
-//!   matrix-free one implements it directly, and shooting/continuation code does not change.
+//! The plug-in points:
+//! - [`MechanicalSystem`]: any conservative structure — a mass operator, the internal force,
+//!   the tangent stiffness applied to a block of vectors (optionally its values on a fixed
+//!   sparse pattern) and the potential energy. Shooting, continuation and stability work on
+//!   this trait alone; `examples/pendulum.rs` implements it in a few lines.
+//! - [`NonlinearElement`]: one nonlinear restoring-force law, to put into a [`Structure`]
+//!   with your own `M` and `K`.
+//!
+//! The explicit form `x'' = a(x) = -M⁻¹ f_int(x)` (eq. (2)) is what explicit integrators
+//! need; it is derived from the trait by [`ExplicitForm`], not implemented by users.
 
 mod block;
 mod elements;
+mod explicit;
 mod families;
+mod mass;
+mod matrix;
 mod structure;
 
 pub use block::{Block, BlockMut};
 pub use elements::PolynomialSpring;
+pub use explicit::ExplicitForm;
 pub use families::{BladedDisk, duffing, two_dof};
+pub use mass::{Mass, MassNotPositiveDefinite, MassOperator};
+pub use matrix::{Matrix, SparseMatrix, SparsityPattern};
 pub use structure::{CyclicSymmetry, ModelError, Structure};
 
-/// A conservative system `x'' = a(x)` with `a(x) = -M⁻¹ (K x + f_nl(x))` (SPEC §1, state form).
-pub trait SecondOrderSystem: Sync {
+/// A conservative structure `M x'' + f_int(x) = 0` (docs/method.md eq. (1)).
+///
+/// Required: the number of dofs, the mass operator, the internal force, its tangent applied
+/// to a block of directions, and the potential. Optional: the tangent's values on a fixed
+/// sparse pattern (an assembled operator, much faster for many directions), and a cyclic
+/// symmetry for `(n, d)` mode labels.
+pub trait MechanicalSystem: Sync {
     /// Number of degrees of freedom `n`.
     fn dofs(&self) -> usize;
 
-    /// Writes `a = -M⁻¹ (K x + f_nl(x))`.
-    fn acceleration(&self, x: &[f64], a: &mut [f64]);
+    /// The mass matrix `M` as an operator (factorised once).
+    fn mass(&self) -> &dyn MassOperator;
 
-    /// Writes `out = -M⁻¹ (K + ∂f_nl/∂x(x)) dx` for each column of `dx` — the lower block row
-    /// of the variational equations `Φ' = J Φ` (SPEC §2), applied to the position block of Φ.
-    fn acceleration_tangent(&self, x: &[f64], dx: Block<'_>, out: BlockMut<'_>);
+    /// Writes `f = f_int(x)` (same sign as `K x`: the restoring force).
+    fn internal_force(&self, x: &[f64], f: &mut [f64]);
 
-    /// The same product on *interleaved* blocks, the integrator's layout: `dx` and `out` are
-    /// `n × k` row-major, direction `c` of dof `i` at `[i * k + c]`, so that a row of a sparse
-    /// operator combines contiguous rows of `dx`. The default transposes to and from
-    /// [`Self::acceleration_tangent`]; override it for speed.
-    fn acceleration_tangent_interleaved(&self, x: &[f64], dx: &[f64], k: usize, out: &mut [f64]) {
-        tangent_through_columns(self, x, dx, k, out);
+    /// Writes `out[:, c] = K_t(x) dx[:, c]` for every column, `K_t = ∂f_int/∂x` (eq. (5)).
+    fn tangent_stiffness(&self, x: &[f64], dx: Block<'_>, out: BlockMut<'_>);
+
+    /// Potential energy `V(x)` with `∂V/∂x = f_int(x)`, `V(0) = 0`.
+    fn potential_energy(&self, x: &[f64]) -> f64;
+
+    /// The fixed sparsity pattern of `K_t(x)` (for every `x`), if the system can give its
+    /// values there ([`Self::tangent_values`]).
+    fn tangent_pattern(&self) -> Option<&SparsityPattern> {
+        None
     }
 
-    /// Total energy `E = ½ vᵀMv + ½ xᵀKx + V_nl(x)` (SPEC §1).
-    fn energy(&self, x: &[f64], v: &[f64]) -> f64;
-}
-
-/// [`SecondOrderSystem::acceleration_tangent_interleaved`] through the column-major
-/// [`SecondOrderSystem::acceleration_tangent`] (two transpositions into reused scratch).
-pub fn tangent_through_columns<S: SecondOrderSystem + ?Sized>(
-    system: &S,
-    x: &[f64],
-    dx: &[f64],
-    k: usize,
-    out: &mut [f64],
-) {
-    thread_local! {
-        static COLUMNS: std::cell::RefCell<(Vec<f64>, Vec<f64>)> =
-            const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+    /// Writes the values of `K_t(x)` on [`Self::tangent_pattern`]. Called only when the
+    /// pattern is given.
+    fn tangent_values(&self, _x: &[f64], _values: &mut [f64]) {
+        unimplemented!("tangent_values is required when tangent_pattern returns a pattern")
     }
-    let n = system.dofs();
-    COLUMNS.with_borrow_mut(|(a, b)| {
-        a.resize(n * k, 0.0);
-        b.resize(n * k, 0.0);
-        for i in 0..n {
-            for c in 0..k {
-                a[c * n + i] = dx[i * k + c];
-            }
-        }
-        system.acceleration_tangent(x, Block::new(a, n, k, n), BlockMut::new(b, n, k, n));
-        for i in 0..n {
-            for c in 0..k {
-                out[i * k + c] = b[c * n + i];
-            }
-        }
-    });
+
+    /// Cyclic symmetry (sector-major dof numbering), for `(n, d)` labels and mirror classes.
+    fn cyclic_symmetry(&self) -> Option<CyclicSymmetry> {
+        None
+    }
+
+    /// Total energy `E = ½ vᵀ M v + V(x)` (eq. (3)).
+    fn energy(&self, x: &[f64], v: &[f64]) -> f64 {
+        let mut mv = vec![0.0; v.len()];
+        self.mass().apply(v, 1, &mut mv);
+        0.5 * crate::linalg::dot(v, &mv) + self.potential_energy(x)
+    }
 }
 
 /// One nonlinear restoring force `f_e(x)` with potential `V_e` (`f_e = ∂V_e/∂x`).
@@ -83,9 +85,9 @@ pub trait NonlinearElement: Send + Sync + std::fmt::Debug {
     fn add_tangent_product(&self, x: &[f64], dx: Block<'_>, out: &mut BlockMut<'_>);
     /// Optional, for speed: writes the tangent `∂f_e/∂x(x)` restricted to the rows and columns
     /// [`Self::dofs_used`] (in that order; column-major, `m × m` for `m` dofs) and returns
-    /// `true`. It must then be the whole tangent (zero outside those dofs), and the answer must
-    /// not depend on `x`: a [`Structure`] whose elements all provide it assembles one sparse
-    /// tangent operator per evaluation instead of applying the elements one by one.
+    /// `true`. It must then be the whole tangent (zero outside those dofs): a [`Structure`]
+    /// whose elements all provide it assembles one sparse tangent per evaluation instead of
+    /// applying the elements one by one.
     fn tangent_matrix(&self, _x: &[f64], _out: &mut [f64]) -> bool {
         false
     }

@@ -1,28 +1,40 @@
-//! The shooting problem for periodic motions (SPEC §2):
+//! The shooting problem for periodic motions (docs/method.md §2–3):
 //!
-//! `H(z0, T) = z(T; z0) - z0 = 0` plus a phase condition, with the Jacobian
-//! `∂H/∂z0 = Φ(T) - I`, `∂H/∂T = g(z(T))` from the variational equations (or, as the paper's
-//! baseline, from finite differences).
+//! `H(z0, T) = z(T; z0) - z0 = 0` (eq. (4)) plus a phase condition (eq. (5)), with the
+//! Jacobian `∂H/∂z0 = Φ(T) - I`, `∂H/∂T = g(z(T))` (eq. (9)) from the variational equations
+//! (or, as the paper's baseline, from finite differences). [`Shooting`] implements
+//! [`ContinuationProblem`], so a branch of periodic motions is continued like any other
+//! family; its points are [`BranchPoint`]s, with Floquet stability.
 //!
 //! **Unknowns.** Initial states are restricted to the leading `r_u` columns `B_u` of an
 //! *elastic basis* `B` (`n × r`, mass-orthonormal linear modes without the rigid-body ones):
 //! `x0 = B_u a` and, for the general phase condition, `v0 = ω_ref B_u b`. This removes the
 //! rigid-body degeneracy exactly (a rigid shift is periodic for every `T`, a rigid velocity
-//! drifts; SPEC §7) and gives modal scaling; `B_u` may be a smaller invariant subspace (see
+//! drifts; docs/method.md, numerical traps) and gives modal scaling; `B_u` may be a smaller invariant subspace (see
 //! [`crate::symmetry`]), while Floquet multipliers always use the whole of `B`.
 //! The period enters as `τ = T / T_ref`. The unknown vector is `u = (a[, b], τ)`.
 //!
 //! **Equations.** Residual rows are weighted `W = diag(I, I/ω_ref)` so that displacement and
-//! velocity mismatches weigh alike, and the convergence test of SPEC §2 is applied in the same
+//! velocity mismatches weigh alike, and the convergence test (eq. (7)) is applied in the same
 //! metric: `‖W H‖ / ‖W z0‖ < eps`. With `ω_ref = 1` this is exactly `‖H‖ / ‖z0‖`; in general
 //! it makes the test independent of the time unit (the unweighted one effectively ignores
 //! velocity mismatches when `ω ≪ 1` and over-weights them when `ω ≫ 1`).
 
+mod monodromy;
+mod point;
+mod start;
+
+pub use point::BranchPoint;
+pub use start::{Start, StartError};
+
+use crate::continuation::Linearization;
+use crate::floquet::{DenseFloquet, FloquetSolver};
 use crate::integrate::{
-    Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tableau, evaluate_field as field,
+    Flow, IntegrationError, IntegrationStats, Integrator, RungeKutta, Steps, Tolerances,
 };
 use crate::linalg::{self, Mat};
-use crate::model::{Block, SecondOrderSystem};
+use crate::model::{Block, MechanicalSystem};
+use crate::settings::Settings;
 
 /// How the time-shift freedom of an autonomous periodic orbit is removed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -56,7 +68,7 @@ pub struct Evaluation {
     pub z_end: Vec<f64>,
     /// `T`.
     pub period: f64,
-    /// `‖W H‖ / ‖W z0‖`, the convergence measure of SPEC §2 in the weighted metric.
+    /// `‖W H‖ / ‖W z0‖`, the convergence measure (eq. (7)) in the weighted metric.
     pub relative_residual: f64,
     /// Weighted residual rows `[W H; h]`.
     pub rows: Vec<f64>,
@@ -68,6 +80,49 @@ pub struct Evaluation {
     pub steps: Vec<f64>,
 }
 
+impl Linearization for Evaluation {
+    fn residual(&self) -> &[f64] {
+        &self.rows
+    }
+
+    fn relative_residual(&self) -> f64 {
+        self.relative_residual
+    }
+
+    /// Dense Householder QR of the bordered Jacobian (the Moore–Penrose solution of the
+    /// consistent overdetermined system).
+    fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
+        let (rows, m) = (self.jacobian.nrows(), self.jacobian.ncols());
+        let a = Mat::from_fn(rows + 1, m, |i, j| {
+            if i < rows {
+                self.jacobian[(i, j)]
+            } else {
+                border[j]
+            }
+        });
+        let mut b = rhs.to_vec();
+        b.push(border_rhs);
+        linalg::least_squares(a.as_ref(), &b)
+    }
+}
+
+/// Why the shooting problem could not be evaluated, or a solution is not a valid point.
+#[derive(Debug, thiserror::Error)]
+pub enum ShootingError {
+    #[error(transparent)]
+    Integration(#[from] IntegrationError),
+    #[error("non-positive period {0}")]
+    NonPositivePeriod(f64),
+    #[error("non-finite energy {0}")]
+    NonFiniteEnergy(f64),
+    #[error(
+        "the motion is not half-wave symmetric (full-period residual {0:.2e}); set half_period = false"
+    )]
+    NotHalfWaveSymmetric(f64),
+    #[error("Floquet analysis failed: {0}")]
+    Floquet(#[from] linalg::LinalgError),
+}
+
 /// Work counters of the shooting problem.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct ShootingStats {
@@ -77,8 +132,7 @@ pub struct ShootingStats {
 }
 
 /// The shooting problem of one branch.
-#[derive(Debug)]
-pub struct Shooting<'a, S: SecondOrderSystem + ?Sized> {
+pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     system: &'a S,
     n: usize,
     /// Elastic basis `B`, `n × r` column-major; its first `r_u` columns span the unknowns.
@@ -95,21 +149,41 @@ pub struct Shooting<'a, S: SecondOrderSystem + ?Sized> {
     period_ref: f64,
     /// State directions of the unknowns, `2n × m`.
     state_basis: Vec<f64>,
-    integrator: Integrator,
+    integrator: Box<dyn Integrator + 'a>,
+    floquet: Box<dyn FloquetSolver>,
     first_step: Option<f64>,
+    /// `z_ref` of the flow-orthogonal phase condition: the last accepted point's `z0`.
+    phase_reference: Vec<f64>,
+    /// The convergence tolerance (the full-period check of half-period points uses it).
+    tolerance: f64,
+    stability_tolerance: f64,
     pub stats: ShootingStats,
 }
 
-/// Settings of the shooting problem.
+impl<S: MechanicalSystem + ?Sized> std::fmt::Debug for Shooting<'_, S> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Shooting")
+            .field("dofs", &self.n)
+            .field("modes", &self.r)
+            .field("unknown_modes", &self.r_u)
+            .field("phase", &self.phase)
+            .field("half_period", &self.half_period)
+            .finish()
+    }
+}
+
+/// What a branch's start fixes of its shooting problem, beside the settings.
 #[derive(Debug, Clone)]
-pub struct ShootingSettings {
+pub struct ShootingSetup {
+    /// Elastic basis `B` (`n × r` column-major, mass-orthonormal), the first
+    /// `unknown_columns` spanning the unknowns.
+    pub basis: Vec<f64>,
+    /// `M B`, for projections onto modal coordinates (`q = (MB)ᵀ x`).
+    pub mass_basis: Vec<f64>,
+    pub unknown_columns: usize,
+    /// Frequency scale of the branch.
+    pub omega_ref: f64,
     pub phase: PhaseCondition,
-    pub jacobian: JacobianMethod,
-    pub tableau: &'static Tableau,
-    /// The shooting tolerance `eps` (SPEC §2).
-    pub tolerance: f64,
-    /// Integrator relative tolerance = `integration_factor × tolerance`.
-    pub integration_factor: f64,
     /// Amplitude unit of the unknowns: `x0 = B_u (amplitude_scale · a)`. Chosen where the
     /// nonlinearity becomes strong, it makes `a` and `τ` both O(1) in the nonlinear regime,
     /// so the arclength does not depend on the model's length unit.
@@ -117,45 +191,57 @@ pub struct ShootingSettings {
     /// Shoot over half a period on `z(T/2) = -z0` (valid for odd systems, `g(-z) = -g(z)`,
     /// and half-wave-symmetric motions): half the integration, and `Φ(T) = Φ(T/2)²`.
     pub half_period: bool,
+    /// The first phase reference (the start's state).
+    pub phase_reference: Vec<f64>,
 }
 
-impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
-    /// `basis`: `n × r` column-major, mass-orthonormal, the first `unknown_columns` spanning
-    /// the unknowns; `mass_basis = M B`; `omega_ref`: frequency scale of the branch.
-    pub fn new(
-        system: &'a S,
-        basis: Vec<f64>,
-        mass_basis: Vec<f64>,
-        unknown_columns: usize,
-        omega_ref: f64,
-        settings: &ShootingSettings,
-    ) -> Self {
+impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
+    /// The problem of one branch, integrated by the settings' explicit Runge–Kutta method
+    /// ([`Self::with_integrator`] plugs another in).
+    pub fn new(system: &'a S, setup: ShootingSetup, settings: &Settings) -> Self {
+        let ShootingSetup {
+            basis,
+            mass_basis,
+            unknown_columns,
+            omega_ref,
+            phase,
+            amplitude_scale,
+            half_period,
+            phase_reference,
+        } = setup;
         let n = system.dofs();
         let r = basis.len() / n;
         let r_u = unknown_columns.min(r);
-        let m = match settings.phase {
+        let m = match phase {
             PhaseCondition::ZeroVelocity => r_u,
             PhaseCondition::FlowOrthogonal => 2 * r_u,
         };
-        let a = settings.amplitude_scale;
+        let a = amplitude_scale;
         let mut state_basis = vec![0.0; 2 * n * m];
         for c in 0..r_u {
             let b = &basis[c * n..(c + 1) * n];
             for (s, b) in state_basis[c * 2 * n..c * 2 * n + n].iter_mut().zip(b) {
                 *s = a * b;
             }
-            if settings.phase == PhaseCondition::FlowOrthogonal {
+            if phase == PhaseCondition::FlowOrthogonal {
                 let col = &mut state_basis[(r_u + c) * 2 * n + n..(r_u + c + 1) * 2 * n];
                 for (s, b) in col.iter_mut().zip(b) {
                     *s = a * omega_ref * b;
                 }
             }
         }
-        let tolerances = crate::integrate::Tolerances {
-            relative: settings.integration_factor * settings.tolerance,
-            absolute: settings.integration_factor * settings.tolerance,
+        let tolerance = settings.continuation.tolerance;
+        let relative = settings.integration.integration_factor * tolerance;
+        let tolerances = Tolerances {
+            relative,
+            absolute: relative,
             velocity_scale: omega_ref,
         };
+        let integrator = RungeKutta::new(
+            system,
+            settings.integration.integrator.tableau(),
+            tolerances,
+        );
         Self {
             system,
             n,
@@ -163,17 +249,35 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
             mass_basis,
             r,
             r_u,
-            phase: settings.phase,
-            jacobian_method: settings.jacobian,
+            phase,
+            jacobian_method: settings.shooting.jacobian,
             omega_ref,
             amplitude_scale: a,
-            half_period: settings.half_period,
+            half_period,
             period_ref: 2.0 * std::f64::consts::PI / omega_ref,
             state_basis,
-            integrator: Integrator::new(settings.tableau, tolerances),
+            integrator: Box::new(integrator),
+            floquet: Box::new(DenseFloquet),
             first_step: None,
+            phase_reference,
+            tolerance,
+            stability_tolerance: settings.stability.stability_tolerance,
             stats: ShootingStats::default(),
         }
+    }
+
+    /// Replaces the integrator (e.g. an implicit one for a stiff model). Its tolerances are
+    /// set from the problem's.
+    pub fn with_integrator(mut self, mut integrator: Box<dyn Integrator + 'a>) -> Self {
+        integrator.set_tolerances(self.integrator.tolerances());
+        self.integrator = integrator;
+        self
+    }
+
+    /// Replaces the Floquet solver (the dense full-spectrum one by default).
+    pub fn with_floquet_solver(mut self, solver: Box<dyn FloquetSolver>) -> Self {
+        self.floquet = solver;
+        self
     }
 
     pub fn system(&self) -> &'a S {
@@ -225,7 +329,7 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
 
     /// Total energy of the motion starting at `z0`.
     pub fn energy(&self, z0: &[f64]) -> f64 {
-        self.system.energy(&z0[..self.n], &z0[self.n..])
+        self.integrator.energy(z0)
     }
 
     fn integrate(
@@ -245,11 +349,10 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
                 v.abs() / self.omega_ref
             })
         });
-        self.integrator.tolerances.absolute =
-            self.integrator.tolerances.relative * scale.max(f64::MIN_POSITIVE);
-        let flow = self
-            .integrator
-            .flow(self.system, z0, period, directions, steps)?;
+        let mut tolerances = self.integrator.tolerances();
+        tolerances.absolute = tolerances.relative * scale.max(f64::MIN_POSITIVE);
+        self.integrator.set_tolerances(tolerances);
+        let flow = self.integrator.flow(z0, period, directions, steps)?;
         self.stats.integrations += 1;
         self.stats.integration += flow.stats;
         Ok(flow)
@@ -306,20 +409,18 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         }
     }
 
-    /// Evaluates the shooting equations and their Jacobian at `u`. `phase_reference` is the
-    /// `z_ref` of [`PhaseCondition::FlowOrthogonal`] (ignored otherwise).
-    pub fn evaluate(
+    /// Evaluates the shooting equations and their Jacobian at `u`, with `phase_reference`
+    /// the `z_ref` of [`PhaseCondition::FlowOrthogonal`] (ignored otherwise).
+    pub fn evaluate_with_reference(
         &mut self,
         u: &[f64],
         phase_reference: &[f64],
-    ) -> Result<Evaluation, IntegrationError> {
+    ) -> Result<Evaluation, ShootingError> {
         let (n, n2) = (self.n, 2 * self.n);
         let m = u.len() - 1;
         let period = u[m] * self.period_ref;
         if !(period.is_finite() && period > 0.0) {
-            return Err(IntegrationError::InvalidInput(format!(
-                "non-positive period {period}"
-            )));
+            return Err(ShootingError::NonPositivePeriod(period));
         }
         let z0 = self.initial_state(u);
         let directions = std::mem::take(&mut self.state_basis);
@@ -350,13 +451,13 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
         }
         // ∂H/∂τ = (horizon/τ) g(z(horizon)): T_ref g(z(T)), or T_ref/2 g(z(T/2)).
         let mut g_end = vec![0.0; n2];
-        field(self.system, &flow.z, &mut g_end);
+        self.integrator.field(&flow.z, &mut g_end);
         for i in 0..n2 {
             jacobian[(i, m)] = weight(i) * (horizon / u[m]) * g_end[i];
         }
         if phase_rows == 1 {
             let mut g_ref = vec![0.0; n2];
-            field(self.system, phase_reference, &mut g_ref);
+            self.integrator.field(phase_reference, &mut g_ref);
             let norm = linalg::norm(&g_ref).max(f64::MIN_POSITIVE);
             g_ref.iter_mut().for_each(|g| *g /= norm);
             let offset: Vec<f64> = (0..n2).map(|i| z0[i] - phase_reference[i]).collect();
@@ -376,133 +477,6 @@ impl<'a, S: SecondOrderSystem + ?Sized> Shooting<'a, S> {
             flow_derivative: derivative,
             steps: flow.steps,
         })
-    }
-
-    /// The monodromy matrix restricted to the elastic state space, in modal coordinates
-    /// (`2r × 2r`): `L Φ(T) E` with `E = diag(B, B)`, `L = diag((MB)ᵀ, (MB)ᵀ)`. Rigid-body
-    /// motions decouple exactly (their block is `[[1, T], [0, 1]]`), so its eigenvalues are the
-    /// Floquet multipliers of the elastic motion. The columns of `Φ E` that the evaluation
-    /// already propagated (the unknown directions) are reused; the rest are integrated in one
-    /// pass on a fresh step sequence.
-    pub fn monodromy(&mut self, evaluation: &Evaluation) -> Result<Mat<f64>, IntegrationError> {
-        let (n, n2, r, r_u) = (self.n, 2 * self.n, self.r, self.r_u);
-        let (phase, omega_ref, a) = (self.phase, self.omega_ref, self.amplitude_scale);
-        // Column c of E: displacement mode c (c < r) or velocity mode c - r; the evaluation
-        // propagated them scaled by `a` (and `ω_ref` for velocities).
-        let known = move |c: usize| -> Option<(usize, f64)> {
-            match phase {
-                _ if c < r_u => Some((c, 1.0 / a)),
-                PhaseCondition::FlowOrthogonal if c >= r && c < r + r_u => {
-                    Some((r_u + c - r, 1.0 / (a * omega_ref)))
-                }
-                _ => None,
-            }
-        };
-        let missing: Vec<usize> = (0..2 * r).filter(|&c| known(c).is_none()).collect();
-        let mut directions = vec![0.0; n2 * missing.len()];
-        for (k, &c) in missing.iter().enumerate() {
-            let (mode, offset) = if c < r { (c, 0) } else { (c - r, n) };
-            directions[k * n2 + offset..k * n2 + offset + n]
-                .copy_from_slice(&self.basis[mode * n..(mode + 1) * n]);
-        }
-        // Same steps as the evaluation: every column then differentiates one discrete map.
-        let integrated = if missing.is_empty() {
-            Vec::new()
-        } else {
-            self.flow_with_derivative(
-                &evaluation.z0,
-                evaluation.period,
-                &directions,
-                Some(&evaluation.steps),
-            )?
-            .1
-        };
-        let mut reduced = Mat::<f64>::zeros(2 * r, 2 * r);
-        let mut next_missing = 0;
-        for c in 0..2 * r {
-            let column: Vec<f64> = match known(c) {
-                Some((k, scale)) => evaluation.flow_derivative[k * n2..(k + 1) * n2]
-                    .iter()
-                    .map(|v| v * scale)
-                    .collect(),
-                None => {
-                    next_missing += 1;
-                    integrated[(next_missing - 1) * n2..next_missing * n2].to_vec()
-                }
-            };
-            for k in 0..r {
-                let mb = &self.mass_basis[k * n..(k + 1) * n];
-                reduced[(k, c)] = linalg::dot(mb, &column[..n]);
-                reduced[(r + k, c)] = linalg::dot(mb, &column[n..]);
-            }
-        }
-        if self.half_period {
-            // Odd system and z(T/2) = -z0: the second half-period map equals the first.
-            reduced = linalg::product(reduced.as_ref(), reduced.as_ref());
-        }
-        Ok(reduced)
-    }
-
-    /// The periodicity residual over the full period, `‖W(z(T) - z0)‖ / ‖W z0‖`: for a
-    /// half-period evaluation, the second half is integrated (without sensitivities) to check
-    /// that the motion really is half-wave symmetric.
-    pub fn full_period_residual(
-        &mut self,
-        evaluation: &Evaluation,
-    ) -> Result<f64, IntegrationError> {
-        if !self.half_period {
-            return Ok(evaluation.relative_residual);
-        }
-        let half = 0.5 * evaluation.period;
-        let flow = self.integrate(
-            &evaluation.z_end,
-            half,
-            None,
-            Steps::Adaptive {
-                first_step: self.first_step,
-            },
-        )?;
-        let n = self.n;
-        let weight = |i: usize| if i < n { 1.0 } else { 1.0 / self.omega_ref };
-        let mismatch: Vec<f64> = (0..2 * n)
-            .map(|i| weight(i) * (flow.z[i] - evaluation.z0[i]))
-            .collect();
-        let scale: Vec<f64> = (0..2 * n).map(|i| weight(i) * evaluation.z0[i]).collect();
-        Ok(linalg::norm(&mismatch) / linalg::norm(&scale).max(f64::MIN_POSITIVE))
-    }
-
-    /// Coordinates of a state in the modal basis of [`Shooting::monodromy`]:
-    /// `((MB)ᵀ x, (MB)ᵀ v)`.
-    pub fn modal_coordinates(&self, z: &[f64]) -> Vec<f64> {
-        let (n, r) = (self.n, self.r);
-        let project = |x: &[f64]| -> Vec<f64> {
-            (0..r)
-                .map(|c| linalg::dot(&self.mass_basis[c * n..(c + 1) * n], x))
-                .collect()
-        };
-        let mut q = project(&z[..n]);
-        q.extend(project(&z[n..]));
-        q
-    }
-
-    /// The vector field `g(z)`.
-    pub fn field(&self, z: &[f64]) -> Vec<f64> {
-        let mut g = vec![0.0; z.len()];
-        field(self.system, z, &mut g);
-        g
-    }
-
-    /// Coordinates of [`Shooting::monodromy`] spanned by the unknowns' modes (displacements
-    /// and velocities), when they are fewer than all: on a model whose mirror symmetry
-    /// restricted the unknowns to one class, the monodromy leaves this block and its
-    /// complement invariant.
-    pub fn unknown_block(&self) -> Option<Vec<usize>> {
-        (self.r_u < self.r).then(|| (0..self.r_u).chain(self.r..self.r + self.r_u).collect())
-    }
-
-    /// Whether the problem is shot over half a period.
-    pub fn half_period(&self) -> bool {
-        self.half_period
     }
 }
 

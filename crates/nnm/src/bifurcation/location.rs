@@ -1,0 +1,248 @@
+//! Event location between two points of a branch (docs/method.md §6): the continuation
+//! calls [`BifurcationDetector`] with each new segment, and the detector corrects trial points
+//! on it through [`Segment::point_at`].
+
+use super::{Crossing, Event, detect, multiplicity, test_function};
+use crate::continuation::{Detail, EventDetector, Segment};
+use crate::model::MechanicalSystem;
+use crate::shooting::{BranchPoint, Shooting};
+
+/// Detects folds, branch points, period doublings and Krein collisions between consecutive
+/// points of a branch of periodic motions and locates each one.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct BifurcationDetector;
+
+impl<S: MechanicalSystem + ?Sized> EventDetector<Shooting<'_, S>> for BifurcationDetector {
+    type Event = Event;
+
+    fn detect(&mut self, segment: &mut Segment<'_, Shooting<'_, S>>) -> Vec<Event> {
+        locate_events(segment)
+    }
+}
+
+/// Relative arclength accuracy to which events are located (relative to `‖q‖`): energies
+/// then come out to about twice that.
+const EVENT_ARCLENGTH_TOLERANCE: f64 = 1e-8;
+/// Trial points of a location are converged to this fraction of the continuation tolerance.
+const EVENT_TRIAL_TOLERANCE_FACTOR: f64 = 1e-2;
+/// How many times a step is halved to separate crossings that no test function brackets.
+const REFINE_DEPTH: usize = 2;
+/// Trials allowed to the secant location (it converges in 5–12 on a simple root).
+const SECANT_TRIALS: usize = 20;
+/// Relative arclength bracket to which an event without a usable test function is placed by
+/// bisection (about 18 halvings of a largest step).
+const EVENT_BRACKET_TOLERANCE: f64 = 1e-6;
+/// Trials allowed to the bisection fallback.
+const BISECTION_TRIALS: usize = 24;
+
+/// Detects the events between the ends of `segment` and locates each one; every trial is a
+/// point at arclength `s` from the first end ([`Segment::point_at`]).
+fn locate_events<S: MechanicalSystem + ?Sized>(
+    segment: &mut Segment<'_, Shooting<'_, S>>,
+) -> Vec<Event> {
+    let previous = segment.previous().1.clone();
+    let next = segment.next().1.clone();
+    let h = segment.length();
+    let q = segment.amplitude();
+    let tolerance = EVENT_ARCLENGTH_TOLERANCE * q;
+    // Trial points are converged further than branch points (EVENT_TRIAL_TOLERANCE_FACTOR):
+    // near a branch point the corrector's Jacobian is nearly singular, and a residual at the
+    // continuation tolerance leaves an error along the null direction that shifts the test
+    // function (seen as a 2e-6 shift of the two-DOF branch point on the full-period
+    // problem). The integration accuracy (`integration_factor × tolerance`) leaves room.
+    let mut trial_point = |s: f64, with_floquet: bool| -> Result<BranchPoint, String> {
+        let detail = if with_floquet {
+            Detail::Full
+        } else {
+            Detail::Light
+        };
+        segment.point_at(s, detail, EVENT_TRIAL_TOLERANCE_FACTOR)
+    };
+    let brackets = |crossing: Crossing, a: &BranchPoint, b: &BranchPoint| {
+        let value = |p: &BranchPoint| test_function(crossing, p).map(|(f, _)| f);
+        matches!((value(a), value(b)), (Some(fa), Some(fb)) if fa * fb < 0.0)
+    };
+    // Steps in which some change has no test function bracketing it (typically several pairs
+    // crossing in one step) are halved, up to REFINE_DEPTH times, so that each crossing gets
+    // a sub-interval of its own.
+    type End = (f64, BranchPoint);
+    let mut pending: Vec<(End, End, usize)> = vec![((0.0, previous.clone()), (h, next.clone()), 0)];
+    let mut work: Vec<(End, End, Crossing)> = Vec::new();
+    let mut refinements = 0;
+    while let Some((a, b, depth)) = pending.pop() {
+        let crossings = detect(&a.1, &b.1);
+        let unbracketed = crossings.iter().any(|&c| !brackets(c, &a.1, &b.1));
+        if unbracketed && depth < REFINE_DEPTH {
+            let mid = 0.5 * (a.0 + b.0);
+            if let Ok(m) = trial_point(mid, true) {
+                refinements += 1;
+                pending.push(((mid, m.clone()), b, depth + 1));
+                pending.push((a, (mid, m), depth + 1));
+                continue;
+            }
+        }
+        work.extend(crossings.into_iter().map(|c| (a.clone(), b.clone(), c)));
+    }
+    let mut located = Vec::new();
+    let mut location_steps = 0;
+    for ((sa, a), (sb, b), crossing) in work {
+        let value = |p: &BranchPoint| test_function(crossing, p).map(|(f, _)| f);
+        let width = sb - sa;
+        let result = match (value(&a), value(&b)) {
+            (Some(f0), Some(f1)) if f0 * f1 < 0.0 => {
+                illinois(width, f0, f1, tolerance, SECANT_TRIALS, |x| {
+                    let p = trial_point(sa + x, crossing.needs_floquet())?;
+                    let f = value(&p).ok_or("the critical pair vanished")?;
+                    Ok((f, p))
+                })
+            }
+            // The counts changed but no test function brackets a zero even after refinement:
+            // bisect on which side's pattern a trial shares. Placed, not located: a coarser
+            // bracket is enough.
+            _ => bisect(width, EVENT_BRACKET_TOLERANCE * q, BISECTION_TRIALS, |x| {
+                let p = trial_point(sa + x, true)?;
+                let past = detect(&a, &p).iter().any(|c| c.kind() == crossing.kind());
+                Ok((past, p))
+            }),
+        };
+        let located_point = match result {
+            Ok(found) => {
+                let summary = (
+                    sa + found.arclength,
+                    found.uncertainty,
+                    found.trials,
+                    found.converged,
+                );
+                if crossing.needs_floquet() {
+                    Ok((found.payload, summary))
+                } else {
+                    // A fold's trials skip the Floquet analysis: do it once at the result.
+                    trial_point(summary.0, true).map(|p| (p, summary))
+                }
+            }
+            Err(why) => Err(why),
+        };
+        // A detected event whose location failed is still reported, at the end of its
+        // interval, with the whole interval as its uncertainty.
+        let (point, (arclength, uncertainty, trials, converged)) =
+            located_point.unwrap_or_else(|_| (b.clone(), (sb, width.abs(), 0, false)));
+        location_steps += trials;
+        located.push((crossing, arclength, uncertainty, trials, converged, point));
+    }
+    segment.add_location_steps(location_steps + refinements);
+    let mut located: Vec<Event> = located
+        .into_iter()
+        .map(
+            |(crossing, arclength, uncertainty, trials, converged, point)| {
+                let multiplier = test_function(crossing, &point).map_or((1.0, 0.0), |(_, m)| m);
+                Event {
+                    kind: crossing.kind(),
+                    after: previous.index,
+                    arclength,
+                    arclength_uncertainty: uncertainty,
+                    multiplicity: multiplicity(crossing, &point),
+                    multiplier,
+                    location_steps: trials,
+                    converged,
+                    state_tangent: segment.problem().initial_state(&point.tangent),
+                    period_rate: point.tangent[point.tangent.len() - 1]
+                        * segment.problem().period_ref(),
+                    point,
+                }
+            },
+        )
+        .collect();
+    located.sort_by(|a, b| a.arclength.total_cmp(&b.arclength));
+    located
+}
+
+/// The zero of `f` on `[0, h]` given `f(0) = f0` and `f(h) = fh` of opposite signs, by the
+/// Illinois variant of regula falsi (superlinear, and the bracket always shrinks). `f` returns
+/// its value and whatever the caller wants to keep from the last trial. Stops when the bracket
+/// or the last move is below `tolerance` (the second is what ends it once `f` is down to its
+/// round-off, where the signs no longer shrink the bracket), or after `max_trials`.
+pub(crate) fn illinois<T>(
+    h: f64,
+    f0: f64,
+    fh: f64,
+    tolerance: f64,
+    max_trials: usize,
+    mut f: impl FnMut(f64) -> Result<(f64, T), String>,
+) -> Result<Located<T>, String> {
+    let (mut a, mut fa, mut b, mut fb) = (0.0, f0, h, fh);
+    for trial in 1..=max_trials {
+        let mut s = b - fb * (b - a) / (fb - fa);
+        let (lo, hi) = (a.min(b), a.max(b));
+        if !(s > lo && s < hi) {
+            s = 0.5 * (a + b);
+        }
+        let (fs, payload) = f(s)?;
+        let moved = (s - b).abs();
+        if fs * fb < 0.0 {
+            (a, fa) = (b, fb);
+        } else {
+            fa *= 0.5;
+        }
+        (b, fb) = (s, fs);
+        let width = (b - a).abs();
+        if fs == 0.0 || width < tolerance || moved < tolerance || trial == max_trials {
+            return Ok(Located {
+                arclength: s,
+                payload,
+                uncertainty: if fs == 0.0 { 0.0 } else { width.min(moved) },
+                trials: trial,
+                // A root drives `f` to its round-off; a jump of the test function (a sign
+                // change without a zero) leaves it at the size of the jump.
+                // It must also have stopped on its tolerance, not on the trial limit.
+                converged: fs.abs() <= 1e-3 * f0.abs().max(fh.abs())
+                    && (fs == 0.0 || width < tolerance || moved < tolerance),
+            });
+        }
+    }
+    Err("no trial was made".into())
+}
+
+/// Bisection of `[0, h]` on a yes/no question whose answer is "no" at 0 and "yes" at `h`:
+/// returns the first "yes" trial once the bracket is narrower than `tolerance`.
+pub(crate) fn bisect<T>(
+    h: f64,
+    tolerance: f64,
+    max_trials: usize,
+    mut is_past: impl FnMut(f64) -> Result<(bool, T), String>,
+) -> Result<Located<T>, String> {
+    let (mut a, mut b) = (0.0, h);
+    let mut best = None;
+    for trial in 1..=max_trials {
+        let s = 0.5 * (a + b);
+        let (past, payload) = is_past(s)?;
+        if past {
+            b = s;
+            best = Some((s, payload));
+        } else {
+            a = s;
+        }
+        if (b - a).abs() < tolerance || trial == max_trials {
+            let Some((arclength, payload)) = best else {
+                return Err("the change was not seen inside the step".into());
+            };
+            return Ok(Located {
+                arclength,
+                payload,
+                uncertainty: (b - a).abs(),
+                trials: trial,
+                // Placed where the pattern of the multipliers changes (to the bracket), not
+                // at a zero of a test function.
+                converged: false,
+            });
+        }
+    }
+    Err("no trial was made".into())
+}
+
+pub(crate) struct Located<T> {
+    pub arclength: f64,
+    pub payload: T,
+    pub uncertainty: f64,
+    pub trials: usize,
+    pub converged: bool,
+}

@@ -1,0 +1,73 @@
+//! The Newton corrector on the bordered system (docs/method.md eq. (14)): the problem's rows
+//! plus one row `dᵀ (u - anchor) = 0`, solved in least squares (energy conservation makes one
+//! periodicity row of the shooting problem redundant).
+
+use super::{ContinuationProblem, Linearization};
+
+/// A converged corrector.
+#[derive(Debug)]
+pub struct Corrected<E> {
+    pub u: Vec<f64>,
+    pub evaluation: E,
+    pub iterations: usize,
+}
+
+/// Why the corrector failed.
+#[derive(Debug, thiserror::Error)]
+pub enum CorrectorError<E: std::error::Error> {
+    #[error(transparent)]
+    Problem(E),
+    #[error("non-finite residual")]
+    NotFinite,
+    #[error("residual {residual:.2e} after {iterations} Newton iterations")]
+    NoConvergence { residual: f64, iterations: usize },
+}
+
+/// Newton from `start` on `F(u) = 0`, `direction · (u - anchor) = 0`, until the problem's
+/// relative residual is below `tolerance`; at most `max_iterations` iterations, and it gives
+/// up early when the residual grows a thousandfold. `newton_iterations` counts the solves.
+pub fn correct<P: ContinuationProblem>(
+    problem: &mut P,
+    start: &[f64],
+    direction: &[f64],
+    anchor: &[f64],
+    tolerance: f64,
+    max_iterations: usize,
+    newton_iterations: &mut usize,
+) -> Result<Corrected<P::Evaluation>, CorrectorError<P::Error>> {
+    let mut u = start.to_vec();
+    let mut first_residual = None;
+    for iteration in 0..=max_iterations {
+        let evaluation = problem.evaluate(&u).map_err(CorrectorError::Problem)?;
+        let residual = evaluation.relative_residual();
+        if !residual.is_finite() {
+            return Err(CorrectorError::NotFinite);
+        }
+        if residual < tolerance {
+            return Ok(Corrected {
+                u,
+                evaluation,
+                iterations: iteration,
+            });
+        }
+        let first = *first_residual.get_or_insert(residual);
+        if iteration == max_iterations || residual > 1e3 * first.max(tolerance) {
+            return Err(CorrectorError::NoConvergence {
+                residual,
+                iterations: iteration,
+            });
+        }
+        let rhs: Vec<f64> = evaluation.residual().iter().map(|r| -r).collect();
+        let offset: f64 = direction
+            .iter()
+            .zip(u.iter().zip(anchor))
+            .map(|(d, (x, y))| d * (x - y))
+            .sum();
+        let delta = evaluation.solve_bordered(direction, &rhs, -offset);
+        for (x, d) in u.iter_mut().zip(&delta) {
+            *x += d;
+        }
+        *newton_iterations += 1;
+    }
+    unreachable!("the loop returns at max_iterations")
+}

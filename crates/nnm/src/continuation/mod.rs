@@ -1,0 +1,140 @@
+//! Pseudo-arclength continuation of a one-parameter family of solutions of `F(u) = 0`,
+//! `F: ℝ^{N+1} → ℝ^{rows}` (docs/method.md §4), apart from any particular problem.
+//!
+//! - [`ContinuationProblem`] is what a problem provides: evaluation of its residual and a
+//!   linearisation that solves bordered systems, and the conversion of a converged solution
+//!   into the point type its users want. Shooting for periodic orbits is one implementation
+//!   ([`crate::shooting::Shooting`]).
+//! - [`Continuation`] is an iterator of points: the caller drives the loop (stop, inspect,
+//!   write). Its pieces are separate: the predictor and tangent ([`predictor`]), the Newton
+//!   corrector ([`corrector`]) and the step control ([`step`]).
+//! - [`EventDetector`] plugs event detection and location in: it is called with every new
+//!   [`Segment`] between two points and may correct trial points on it.
+
+pub mod corrector;
+mod iterator;
+pub mod predictor;
+pub mod step;
+
+pub use iterator::{Continuation, Item, Segment};
+
+/// A linearisation of `F` at one `u`: the residual and the solution of bordered systems
+/// `[J; bᵀ] x = [r; c]` (eqs. (12)–(14)). Dense least squares today; a matrix-free Krylov
+/// solver implements the same method.
+pub trait Linearization {
+    /// The residual rows `F(u)` (possibly more rows than `N`: consistent overdetermined
+    /// systems are solved in least squares).
+    fn residual(&self) -> &[f64];
+    /// The problem's convergence measure (relative residual, eq. (7)).
+    fn relative_residual(&self) -> f64;
+    /// Least-squares solution `x` of `J x = rhs`, `borderᵀ x = border_rhs`.
+    fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64>;
+}
+
+/// A problem continued in `u ∈ ℝ^{N+1}`.
+pub trait ContinuationProblem {
+    type Evaluation: Linearization;
+    /// What a converged point carries for the caller.
+    type Point: Clone;
+    type Error: std::error::Error + Send + Sync + 'static;
+
+    /// `N + 1`, the number of unknowns.
+    fn dimension(&self) -> usize;
+
+    /// Evaluates `F` and its linearisation at `u`.
+    fn evaluate(&mut self, u: &[f64]) -> Result<Self::Evaluation, Self::Error>;
+
+    /// Makes the point of a converged solution. `detail`: whether the analyses a point
+    /// carries (e.g. stability) are wanted, or only what event location needs.
+    fn point(
+        &mut self,
+        solution: &Solution,
+        evaluation: &Self::Evaluation,
+        detail: Detail,
+    ) -> Result<Self::Point, Self::Error>;
+
+    /// Called when a point is accepted on the branch (e.g. to move a phase reference).
+    fn accept(&mut self, _point: &Self::Point) {}
+
+    /// The size against which steps are measured (relative steps). Default: the norm of `u`
+    /// without its last component (the parameter-like one).
+    fn amplitude(&self, u: &[f64]) -> f64 {
+        crate::linalg::norm(&u[..u.len() - 1])
+    }
+}
+
+/// A converged solution on the branch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solution {
+    /// Index of the point on the branch (for a trial point between two points, the first's).
+    pub index: usize,
+    pub u: Vec<f64>,
+    /// The unit tangent there, oriented along the branch.
+    pub tangent: Vec<f64>,
+    /// The arclength step that led here (0 for the first point).
+    pub step: f64,
+    /// Newton iterations of the corrector.
+    pub iterations: usize,
+}
+
+/// How much a point needs to carry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Detail {
+    /// Everything a branch point carries (stability included).
+    Full,
+    /// Only what is cheap (for location trials of test functions that need no stability).
+    Light,
+}
+
+/// Detects events between consecutive points and locates them.
+pub trait EventDetector<P: ContinuationProblem> {
+    type Event;
+    /// The events between the ends of `segment`, located, in the order of the branch.
+    fn detect(&mut self, segment: &mut Segment<'_, P>) -> Vec<Self::Event>;
+}
+
+/// No event detection.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoEvents;
+
+impl<P: ContinuationProblem> EventDetector<P> for NoEvents {
+    type Event = std::convert::Infallible;
+    fn detect(&mut self, _segment: &mut Segment<'_, P>) -> Vec<Self::Event> {
+        Vec::new()
+    }
+}
+
+/// Detection switched on or off at run time.
+impl<P: ContinuationProblem, D: EventDetector<P>> EventDetector<P> for Option<D> {
+    type Event = D::Event;
+    fn detect(&mut self, segment: &mut Segment<'_, P>) -> Vec<Self::Event> {
+        match self {
+            Some(detector) => detector.detect(segment),
+            None => Vec::new(),
+        }
+    }
+}
+
+/// Why continuation could not go on.
+#[derive(Debug, thiserror::Error)]
+pub enum ContinuationError {
+    #[error(transparent)]
+    Settings(#[from] crate::settings::SettingsError),
+    #[error("the first point did not converge: {0}")]
+    FirstPoint(String),
+    #[error("no convergence at the minimum step ({0})")]
+    StepTooSmall(String),
+}
+
+/// Work counters of a continuation.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct ContinuationStats {
+    pub points: usize,
+    pub newton_iterations: usize,
+    pub rejected_steps: usize,
+    /// Corrector solves spent on locating events.
+    pub location_steps: usize,
+}
+
+#[cfg(test)]
+mod tests;

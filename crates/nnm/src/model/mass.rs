@@ -1,0 +1,159 @@
+//! The mass matrix as an operator: applied to vectors, and solved with a factorisation made
+//! once (docs/method.md eq. (2): the explicit form needs `M⁻¹`, never formed).
+
+use super::Matrix;
+use crate::linalg::{self, Mat};
+
+/// What the integrators need of the mass matrix `M` (symmetric positive definite).
+///
+/// Implement it for a mass held in your own storage; [`Mass`] covers diagonal (lumped) and
+/// dense (consistent) masses.
+pub trait MassOperator: Send + Sync {
+    /// Dimension `n`.
+    fn dimension(&self) -> usize;
+    /// `out = M v` for `cols` column-major columns of length `n` (contiguous).
+    fn apply(&self, v: &[f64], cols: usize, out: &mut [f64]);
+    /// `b ← M⁻¹ b` for `cols` column-major columns of length `n` (contiguous), with the
+    /// factorisation made when the operator was built.
+    fn solve_in_place(&self, b: &mut [f64], cols: usize);
+    /// The diagonal of a diagonal (lumped) mass: integrators then scale rows instead of
+    /// solving, and fold the scaling into an assembled tangent.
+    fn diagonal(&self) -> Option<&[f64]> {
+        None
+    }
+}
+
+/// A factorised mass matrix.
+#[derive(Debug, Clone)]
+pub enum Mass {
+    /// `M = diag(m)`; `inverse = 1/m`.
+    Diagonal {
+        diagonal: Vec<f64>,
+        inverse: Vec<f64>,
+    },
+    /// Dense `M` with its Cholesky factor `M = L Lᵀ`.
+    Dense { matrix: Mat<f64>, factor: Mat<f64> },
+}
+
+/// Why a mass matrix cannot be factorised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("mass matrix is not positive definite")]
+pub struct MassNotPositiveDefinite;
+
+impl Mass {
+    /// Factorises `M`: a diagonal matrix (in either storage) stays a diagonal; any other is
+    /// factorised by dense Cholesky. (A sparse factorisation for large consistent masses is
+    /// the next step; it plugs in here.)
+    pub fn new(matrix: &Matrix) -> Result<Self, MassNotPositiveDefinite> {
+        let n = matrix.nrows();
+        if matrix.is_diagonal() {
+            let diagonal: Vec<f64> = (0..n).map(|i| matrix.get(i, i)).collect();
+            // `!(m > 0)` also rejects NaN.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            if diagonal.iter().any(|&m| !(m > 0.0)) {
+                return Err(MassNotPositiveDefinite);
+            }
+            let inverse = diagonal.iter().map(|m| 1.0 / m).collect();
+            return Ok(Mass::Diagonal { diagonal, inverse });
+        }
+        let dense = matrix.to_dense();
+        let factor = linalg::cholesky_lower(dense.as_ref()).map_err(|_| MassNotPositiveDefinite)?;
+        Ok(Mass::Dense {
+            matrix: dense,
+            factor,
+        })
+    }
+
+    /// The identity mass of `n` dofs.
+    pub fn identity(n: usize) -> Self {
+        Mass::Diagonal {
+            diagonal: vec![1.0; n],
+            inverse: vec![1.0; n],
+        }
+    }
+}
+
+impl MassOperator for Mass {
+    fn dimension(&self) -> usize {
+        match self {
+            Mass::Diagonal { diagonal, .. } => diagonal.len(),
+            Mass::Dense { matrix, .. } => matrix.nrows(),
+        }
+    }
+
+    fn apply(&self, v: &[f64], cols: usize, out: &mut [f64]) {
+        let n = self.dimension();
+        match self {
+            Mass::Diagonal { diagonal, .. } => {
+                for (o, x) in out[..n * cols].chunks_mut(n).zip(v.chunks(n)) {
+                    for ((o, x), m) in o.iter_mut().zip(x).zip(diagonal) {
+                        *o = m * x;
+                    }
+                }
+            }
+            Mass::Dense { matrix, .. } => linalg::gemm(
+                out,
+                n,
+                false,
+                matrix.as_ref(),
+                linalg::view(v, n, cols, n),
+                1.0,
+            ),
+        }
+    }
+
+    fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+        let n = self.dimension();
+        match self {
+            Mass::Diagonal { inverse, .. } => {
+                for column in b[..n * cols].chunks_mut(n) {
+                    for (x, d) in column.iter_mut().zip(inverse) {
+                        *x *= d;
+                    }
+                }
+            }
+            Mass::Dense { factor, .. } => linalg::cholesky_solve_in_place(factor.as_ref(), b, cols),
+        }
+    }
+
+    fn diagonal(&self) -> Option<&[f64]> {
+        match self {
+            Mass::Diagonal { diagonal, .. } => Some(diagonal),
+            Mass::Dense { .. } => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dense_solve_inverts_apply() {
+        let m = Matrix::from_fn(3, 3, |i, j| if i == j { 2.0 } else { 0.5 });
+        let mass = Mass::new(&m).unwrap();
+        let v = [0.3, -1.0, 2.5, 1.0, 0.0, -0.7];
+        let mut mv = vec![0.0; 6];
+        mass.apply(&v, 2, &mut mv);
+        mass.solve_in_place(&mut mv, 2);
+        for (a, b) in mv.iter().zip(&v) {
+            assert!((a - b).abs() < 1e-14);
+        }
+        assert!(
+            Mass::new(&Matrix::from_fn(2, 2, |i, j| if i == j {
+                1.0
+            } else {
+                2.0
+            }))
+            .is_err()
+        );
+        assert!(
+            Mass::new(&Matrix::from_fn(2, 2, |i, j| if i == j {
+                -1.0
+            } else {
+                0.0
+            }))
+            .is_err()
+        );
+    }
+}

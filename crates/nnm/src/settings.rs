@@ -1,0 +1,255 @@
+//! The settings of a branch, nested by the layer that uses them, with their defaults and
+//! validation in one place.
+//!
+//! Job files write them flat (`tolerance = 1e-8`, `max_step = 0.25`, ...): every group is
+//! flattened for serde, and [`Settings::KEYS`] lists the accepted keys so a front end can
+//! refuse a misspelt one.
+
+use serde::{Deserialize, Serialize};
+
+use crate::integrate::IntegrationMethod;
+
+/// All settings of a branch.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Settings {
+    #[serde(flatten)]
+    pub limits: Limits,
+    #[serde(flatten)]
+    pub continuation: ContinuationSettings,
+    #[serde(flatten)]
+    pub start: StartSettings,
+    #[serde(flatten)]
+    pub shooting: ShootingSettings,
+    #[serde(flatten)]
+    pub integration: IntegrationSettings,
+    #[serde(flatten)]
+    pub stability: StabilitySettings,
+}
+
+/// Where a branch stops.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Limits {
+    /// Stop once a point's energy exceeds this (default +∞).
+    pub energy_max: f64,
+    /// Stop once `|frequency / linear frequency - 1|` exceeds this (default +∞).
+    pub frequency_shift_max: f64,
+    /// Stop after this many points (default 500).
+    pub max_points: usize,
+}
+
+/// Pseudo-arclength continuation (docs/method.md §4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ContinuationSettings {
+    /// Convergence tolerance `ε` of the corrector on the problem's relative residual
+    /// (eq. (7); default 1e-8).
+    pub tolerance: f64,
+    /// First step, relative to the starting amplitude (default 0.1).
+    pub initial_step: f64,
+    /// Smallest step, relative to the amplitude, before giving up (default 1e-6).
+    pub min_step: f64,
+    /// Largest step, relative to the amplitude (default 0.25: the energy grows by at most
+    /// ~60% a step, which keeps a frequency–energy plot resolved).
+    pub max_step: f64,
+    /// Newton iterations allowed per step (default 8).
+    pub max_iterations: usize,
+    /// Corrector iterations the step control aims at (default 3).
+    pub target_iterations: usize,
+    /// Largest angle between consecutive tangents, radians (default 0.5 ≈ 29°).
+    pub max_turn_angle: f64,
+}
+
+/// How a branch starts from a linear mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct StartSettings {
+    /// Linear energy of the first guess; `None`: where the nonlinear forces are 1e-4 of the
+    /// linear ones along the mode.
+    pub energy_start: Option<f64>,
+    /// On cyclic models with a verified mirror symmetry, keep the unknowns in the starting
+    /// mode's symmetry class (default true).
+    pub symmetry: bool,
+}
+
+/// The shooting problem (docs/method.md §2–3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct ShootingSettings {
+    pub phase: crate::shooting::PhaseCondition,
+    pub jacobian: crate::shooting::JacobianMethod,
+    /// Shoot over half a period when the system is odd (checked at sample states; default
+    /// true). Every point's full-period residual is still checked.
+    pub half_period: bool,
+}
+
+/// Time integration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct IntegrationSettings {
+    pub integrator: IntegrationMethod,
+    /// Integrator relative tolerance as a fraction of the continuation tolerance (default
+    /// 1e-3: the integration error must sit well below the residual Newton converges to).
+    pub integration_factor: f64,
+}
+
+/// Floquet stability and bifurcation events.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct StabilitySettings {
+    /// Tolerance on `|μ| - 1` for calling a point stable (default
+    /// [`crate::floquet::DEFAULT_STABILITY_TOLERANCE`]).
+    pub stability_tolerance: f64,
+    /// Detect folds, branch points, period doublings and Krein collisions between points and
+    /// locate them (default true).
+    pub events: bool,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Self {
+            energy_max: f64::INFINITY,
+            frequency_shift_max: f64::INFINITY,
+            max_points: 500,
+        }
+    }
+}
+
+impl Default for ContinuationSettings {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-8,
+            initial_step: 0.1,
+            min_step: 1e-6,
+            max_step: 0.25,
+            max_iterations: 8,
+            target_iterations: 3,
+            max_turn_angle: 0.5,
+        }
+    }
+}
+
+impl Default for StartSettings {
+    fn default() -> Self {
+        Self {
+            energy_start: None,
+            symmetry: true,
+        }
+    }
+}
+
+impl Default for ShootingSettings {
+    fn default() -> Self {
+        Self {
+            phase: crate::shooting::PhaseCondition::ZeroVelocity,
+            jacobian: crate::shooting::JacobianMethod::Sensitivity,
+            half_period: true,
+        }
+    }
+}
+
+impl Default for IntegrationSettings {
+    fn default() -> Self {
+        Self {
+            integrator: IntegrationMethod::Dop853,
+            integration_factor: 1e-3,
+        }
+    }
+}
+
+impl Default for StabilitySettings {
+    fn default() -> Self {
+        Self {
+            stability_tolerance: crate::floquet::DEFAULT_STABILITY_TOLERANCE,
+            events: true,
+        }
+    }
+}
+
+/// A setting out of its range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("invalid setting: {0}")]
+pub struct SettingsError(pub String);
+
+impl Settings {
+    /// The keys of the flat (job-file) form, every group's fields.
+    pub const KEYS: &'static [&'static str] = &[
+        "energy_max",
+        "frequency_shift_max",
+        "max_points",
+        "tolerance",
+        "initial_step",
+        "min_step",
+        "max_step",
+        "max_iterations",
+        "target_iterations",
+        "max_turn_angle",
+        "energy_start",
+        "symmetry",
+        "phase",
+        "jacobian",
+        "half_period",
+        "integrator",
+        "integration_factor",
+        "stability_tolerance",
+        "events",
+    ];
+
+    /// Checks every setting; continuation calls it, and front ends can call it early.
+    // Negated comparisons are deliberate: NaN must fail them.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let fail = |m: String| Err(SettingsError(m));
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                fail(format!("{name} must be positive and finite, got {v}"))
+            }
+        };
+        let c = &self.continuation;
+        positive("tolerance", c.tolerance)?;
+        positive("initial_step", c.initial_step)?;
+        positive("min_step", c.min_step)?;
+        positive("max_step", c.max_step)?;
+        positive("max_turn_angle", c.max_turn_angle)?;
+        positive("integration_factor", self.integration.integration_factor)?;
+        if self.integration.integration_factor > 1.0 {
+            return fail(format!(
+                "integration_factor {} must not exceed 1 (the integrator must be at least as accurate as the shooting tolerance)",
+                self.integration.integration_factor
+            ));
+        }
+        if c.max_turn_angle > std::f64::consts::PI {
+            return fail(format!("max_turn_angle {} exceeds π", c.max_turn_angle));
+        }
+        let s = self.stability.stability_tolerance;
+        if !(s.is_finite() && s >= 0.0) {
+            return fail(format!(
+                "stability_tolerance must be finite and non-negative, got {s}"
+            ));
+        }
+        if c.tolerance >= 1e-2 {
+            return fail(format!(
+                "tolerance {} is too loose (use < 1e-2)",
+                c.tolerance
+            ));
+        }
+        if c.min_step > c.max_step {
+            return fail("min_step exceeds max_step".into());
+        }
+        if self.limits.energy_max.is_nan() || self.limits.frequency_shift_max.is_nan() {
+            return fail("stop limits must not be NaN".into());
+        }
+        if self.limits.max_points == 0 || c.max_iterations == 0 {
+            return fail("max_points and max_iterations must be at least 1".into());
+        }
+        if let Some(e) = self.start.energy_start
+            && !(e.is_finite() && e > 0.0)
+        {
+            return fail(format!("energy_start must be positive and finite, got {e}"));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,133 @@
+//! The monodromy of a converged point in modal coordinates, and the full-period check of
+//! half-period points (docs/method.md §5).
+
+use super::{Evaluation, PhaseCondition, Shooting, ShootingError};
+use crate::integrate::Steps;
+use crate::linalg::{self, Mat};
+use crate::model::MechanicalSystem;
+
+impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
+    /// The monodromy matrix restricted to the elastic state space, in modal coordinates
+    /// (`2r × 2r`): `L Φ(T) E` with `E = diag(B, B)`, `L = diag((MB)ᵀ, (MB)ᵀ)`. Rigid-body
+    /// motions decouple exactly (their block is `[[1, T], [0, 1]]`), so its eigenvalues are the
+    /// Floquet multipliers of the elastic motion. The columns of `Φ E` that the evaluation
+    /// already propagated (the unknown directions) are reused; the rest are integrated in one
+    /// pass on a fresh step sequence.
+    pub fn monodromy(&mut self, evaluation: &Evaluation) -> Result<Mat<f64>, ShootingError> {
+        let (n, n2, r, r_u) = (self.n, 2 * self.n, self.r, self.r_u);
+        let (phase, omega_ref, a) = (self.phase, self.omega_ref, self.amplitude_scale);
+        // Column c of E: displacement mode c (c < r) or velocity mode c - r; the evaluation
+        // propagated them scaled by `a` (and `ω_ref` for velocities).
+        let known = move |c: usize| -> Option<(usize, f64)> {
+            match phase {
+                _ if c < r_u => Some((c, 1.0 / a)),
+                PhaseCondition::FlowOrthogonal if c >= r && c < r + r_u => {
+                    Some((r_u + c - r, 1.0 / (a * omega_ref)))
+                }
+                _ => None,
+            }
+        };
+        let missing: Vec<usize> = (0..2 * r).filter(|&c| known(c).is_none()).collect();
+        let mut directions = vec![0.0; n2 * missing.len()];
+        for (k, &c) in missing.iter().enumerate() {
+            let (mode, offset) = if c < r { (c, 0) } else { (c - r, n) };
+            directions[k * n2 + offset..k * n2 + offset + n]
+                .copy_from_slice(&self.basis[mode * n..(mode + 1) * n]);
+        }
+        // Same steps as the evaluation: every column then differentiates one discrete map.
+        let integrated = if missing.is_empty() {
+            Vec::new()
+        } else {
+            self.flow_with_derivative(
+                &evaluation.z0,
+                evaluation.period,
+                &directions,
+                Some(&evaluation.steps),
+            )?
+            .1
+        };
+        let mut reduced = Mat::<f64>::zeros(2 * r, 2 * r);
+        let mut next_missing = 0;
+        for c in 0..2 * r {
+            let column: Vec<f64> = match known(c) {
+                Some((k, scale)) => evaluation.flow_derivative[k * n2..(k + 1) * n2]
+                    .iter()
+                    .map(|v| v * scale)
+                    .collect(),
+                None => {
+                    next_missing += 1;
+                    integrated[(next_missing - 1) * n2..next_missing * n2].to_vec()
+                }
+            };
+            for k in 0..r {
+                let mb = &self.mass_basis[k * n..(k + 1) * n];
+                reduced[(k, c)] = linalg::dot(mb, &column[..n]);
+                reduced[(r + k, c)] = linalg::dot(mb, &column[n..]);
+            }
+        }
+        if self.half_period {
+            // Odd system and z(T/2) = -z0: the second half-period map equals the first.
+            reduced = linalg::product(reduced.as_ref(), reduced.as_ref());
+        }
+        Ok(reduced)
+    }
+
+    /// The periodicity residual over the full period, `‖W(z(T) - z0)‖ / ‖W z0‖`: for a
+    /// half-period evaluation, the second half is integrated (without sensitivities) to check
+    /// that the motion really is half-wave symmetric.
+    pub fn full_period_residual(&mut self, evaluation: &Evaluation) -> Result<f64, ShootingError> {
+        if !self.half_period {
+            return Ok(evaluation.relative_residual);
+        }
+        let half = 0.5 * evaluation.period;
+        let flow = self.integrate(
+            &evaluation.z_end,
+            half,
+            None,
+            Steps::Adaptive {
+                first_step: self.first_step,
+            },
+        )?;
+        let n = self.n;
+        let weight = |i: usize| if i < n { 1.0 } else { 1.0 / self.omega_ref };
+        let mismatch: Vec<f64> = (0..2 * n)
+            .map(|i| weight(i) * (flow.z[i] - evaluation.z0[i]))
+            .collect();
+        let scale: Vec<f64> = (0..2 * n).map(|i| weight(i) * evaluation.z0[i]).collect();
+        Ok(linalg::norm(&mismatch) / linalg::norm(&scale).max(f64::MIN_POSITIVE))
+    }
+
+    /// Coordinates of a state in the modal basis of [`Shooting::monodromy`]:
+    /// `((MB)ᵀ x, (MB)ᵀ v)`.
+    pub fn modal_coordinates(&self, z: &[f64]) -> Vec<f64> {
+        let (n, r) = (self.n, self.r);
+        let project = |x: &[f64]| -> Vec<f64> {
+            (0..r)
+                .map(|c| linalg::dot(&self.mass_basis[c * n..(c + 1) * n], x))
+                .collect()
+        };
+        let mut q = project(&z[..n]);
+        q.extend(project(&z[n..]));
+        q
+    }
+
+    /// The vector field `g(z)`.
+    pub fn field(&self, z: &[f64]) -> Vec<f64> {
+        let mut g = vec![0.0; z.len()];
+        self.integrator.field(z, &mut g);
+        g
+    }
+
+    /// Coordinates of [`Shooting::monodromy`] spanned by the unknowns' modes (displacements
+    /// and velocities), when they are fewer than all: on a model whose mirror symmetry
+    /// restricted the unknowns to one class, the monodromy leaves this block and its
+    /// complement invariant.
+    pub fn unknown_block(&self) -> Option<Vec<usize>> {
+        (self.r_u < self.r).then(|| (0..self.r_u).chain(self.r..self.r + self.r_u).collect())
+    }
+
+    /// Whether the problem is shot over half a period.
+    pub fn half_period(&self) -> bool {
+        self.half_period
+    }
+}

@@ -1,0 +1,130 @@
+//! The points of a branch of periodic motions, and [`Shooting`] as a [`ContinuationProblem`].
+
+use super::{Evaluation, PhaseCondition, Shooting, ShootingError};
+use crate::continuation::{ContinuationProblem, Detail, Solution};
+use crate::floquet::Floquet;
+use crate::model::MechanicalSystem;
+
+/// A converged point of a branch.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BranchPoint {
+    pub index: usize,
+    /// Total energy `E(z0)`.
+    pub energy: f64,
+    /// `dE/ds` along the unit tangent: changes sign at a fold.
+    pub energy_slope: f64,
+    /// Period `T` (s).
+    pub period: f64,
+    /// `2π / T` (rad/s).
+    pub frequency: f64,
+    /// Initial state `z0 = [x0; v0]`.
+    pub z0: Vec<f64>,
+    pub floquet: Floquet,
+    /// `‖W H‖ / ‖W z0‖` at convergence (of the half-period problem when shooting over half a
+    /// period).
+    pub relative_residual: f64,
+    /// The same over the full period, `‖W (z(T) - z0)‖ / ‖W z0‖`.
+    pub full_period_residual: f64,
+    /// Newton iterations of the accepted corrector.
+    pub iterations: usize,
+    /// Arclength step that led here (0 for the first point).
+    pub step: f64,
+    /// Unknowns `u = (q, τ)` and unit tangent there (for restarts and branch switching).
+    pub unknowns: Vec<f64>,
+    pub tangent: Vec<f64>,
+}
+
+impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
+    type Evaluation = Evaluation;
+    type Point = BranchPoint;
+    type Error = ShootingError;
+
+    fn dimension(&self) -> usize {
+        self.unknowns()
+    }
+
+    fn evaluate(&mut self, u: &[f64]) -> Result<Evaluation, ShootingError> {
+        let reference = std::mem::take(&mut self.phase_reference);
+        let result = self.evaluate_with_reference(u, &reference);
+        self.phase_reference = reference;
+        result
+    }
+
+    /// With [`Detail::Full`]: the Floquet analysis (the trivial pair deflated along `g(z0)`
+    /// and the family's tangent, docs/method.md eq. (17)) and, for a half-period problem, the
+    /// check that the motion really is half-wave symmetric.
+    // Negated comparison deliberate: a NaN residual must fail.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn point(
+        &mut self,
+        solution: &Solution,
+        evaluation: &Evaluation,
+        detail: Detail,
+    ) -> Result<BranchPoint, ShootingError> {
+        let mut point = BranchPoint {
+            index: solution.index,
+            energy: self.energy(&evaluation.z0),
+            energy_slope: self.energy_slope(&solution.u, &solution.tangent),
+            period: evaluation.period,
+            frequency: 2.0 * std::f64::consts::PI / evaluation.period,
+            z0: evaluation.z0.clone(),
+            floquet: Floquet::empty(),
+            relative_residual: evaluation.relative_residual,
+            full_period_residual: f64::NAN,
+            iterations: solution.iterations,
+            step: solution.step,
+            unknowns: solution.u.clone(),
+            tangent: solution.tangent.clone(),
+        };
+        if detail == Detail::Light {
+            return Ok(point);
+        }
+        let monodromy = self.monodromy(evaluation)?;
+        // The trivial pair spans the flow direction g(z0) and the direction along the family:
+        // deflate it rather than guess it from the spectrum (degenerate partners also sit
+        // near +1, docs/method.md numerical traps).
+        let flow_direction = self.modal_coordinates(&self.field(&evaluation.z0));
+        let family_direction = self.modal_coordinates(&self.initial_state(&solution.tangent));
+        let directions = [flow_direction.as_slice(), family_direction.as_slice()];
+        let class = self.unknown_block();
+        let floquet = self.floquet.analyse(
+            &monodromy,
+            directions,
+            class.as_deref(),
+            self.stability_tolerance,
+        )?;
+        if !point.energy.is_finite() {
+            return Err(ShootingError::NonFiniteEnergy(point.energy));
+        }
+        let full_period_residual = self.full_period_residual(evaluation)?;
+        if !(full_period_residual < 100.0 * self.tolerance) {
+            return Err(ShootingError::NotHalfWaveSymmetric(full_period_residual));
+        }
+        point.floquet = floquet;
+        point.full_period_residual = full_period_residual;
+        Ok(point)
+    }
+
+    /// The flow-orthogonal phase condition refers to the last accepted point.
+    fn accept(&mut self, point: &BranchPoint) {
+        if self.phase == PhaseCondition::FlowOrthogonal {
+            self.phase_reference.clone_from(&point.z0);
+        }
+    }
+}
+
+impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
+    /// `dE/ds` along the unit tangent `t` at unknowns `u`, by the five-point central
+    /// difference (exact for the quartic energy of cubic springs; `O(h⁴)` otherwise, with
+    /// `h = 1e-3 ‖q‖`).
+    fn energy_slope(&self, u: &[f64], t: &[f64]) -> f64 {
+        let z = self.initial_state(u);
+        let w = self.initial_state(t);
+        let h = 1e-3 * crate::linalg::norm(&u[..u.len() - 1]).max(f64::MIN_POSITIVE);
+        let energy_at = |c: f64| {
+            let shifted: Vec<f64> = z.iter().zip(&w).map(|(a, b)| a + c * h * b).collect();
+            self.energy(&shifted)
+        };
+        (8.0 * (energy_at(1.0) - energy_at(-1.0)) - (energy_at(2.0) - energy_at(-2.0))) / (12.0 * h)
+    }
+}

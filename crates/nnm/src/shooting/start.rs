@@ -1,0 +1,322 @@
+//! Where a branch starts: the space of allowed initial states, the scales of the unknowns and
+//! a first guess — from a linear mode of any [`MechanicalSystem`], or from a user's state and
+//! period.
+
+use super::{PhaseCondition, Shooting, ShootingSetup};
+use crate::linalg;
+use crate::model::{Block, BlockMut, MechanicalSystem};
+use crate::modes::{LinearMode, ModesError, linear_modes};
+use crate::settings::Settings;
+use crate::symmetry::{Parity, invariant_class, is_odd, sample_states};
+
+/// Where a branch starts.
+#[derive(Debug, Clone)]
+pub struct Start {
+    /// Elastic basis `B` (`n × r`, column-major, mass-orthonormal): all elastic modes, the
+    /// first `unknown_columns` spanning the subspace the branch lives in.
+    pub basis: Vec<f64>,
+    /// `M B`.
+    pub mass_basis: Vec<f64>,
+    /// How many leading columns of `basis` carry the shooting unknowns.
+    pub unknown_columns: usize,
+    /// The mirror-symmetry class the unknowns were restricted to, if any.
+    pub symmetry: Option<Parity>,
+    /// Modal amplitude at which the nonlinear forces equal the linear ones along the starting
+    /// mode: the amplitude unit of the continuation (see [`ShootingSetup::amplitude_scale`]).
+    pub amplitude_scale: f64,
+    /// Reference (linear) angular frequency of the branch.
+    pub omega: f64,
+    /// Initial guess of `z0` (length 2n).
+    pub z0: Vec<f64>,
+    /// Initial guess of the period.
+    pub period: f64,
+    /// Whether half-period shooting may be used (when the system is odd and the settings
+    /// allow it); false for a branch that breaks the half-wave symmetry.
+    pub half_period: bool,
+    /// State direction (length 2n) whose projection the first corrector holds fixed, and
+    /// along which the branch sets off; `None`: `z0` itself (the starting mode's amplitude).
+    pub pin: Option<Vec<f64>>,
+    /// Phase condition required by this start, overriding the settings' (a switched branch
+    /// whose motions are never at rest everywhere at once needs
+    /// [`PhaseCondition::FlowOrthogonal`]; so does a start from a state with velocities).
+    pub phase: Option<PhaseCondition>,
+}
+
+/// Why a branch could not be started.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum StartError {
+    #[error("mode {0} is a rigid-body mode: it has no nonlinear normal mode")]
+    RigidMode(usize),
+    #[error("mode index {index} out of range (the model has {count} modes)")]
+    NoSuchMode { index: usize, count: usize },
+    #[error("invalid start: {0}")]
+    Invalid(String),
+    #[error(transparent)]
+    Modes(#[from] ModesError),
+}
+
+impl Start {
+    /// Starts on linear mode `index` (0-based, ascending frequency) of `system`, at the
+    /// amplitude where the nonlinear forces are 1e-4 of the linear ones. Computes the linear
+    /// modes; [`Start::from_linear_mode`] takes them when they are already known.
+    pub fn from_mode<S: MechanicalSystem + ?Sized>(
+        system: &S,
+        index: usize,
+    ) -> Result<Self, StartError> {
+        let modes = linear_modes(system)?;
+        Self::from_linear_mode(system, &modes, index, None)
+    }
+
+    /// Starts on linear mode `index` scaled to the linear energy `energy`; when `energy` is
+    /// `None`, at the amplitude where the nonlinear forces are 1e-4 of the linear ones (so
+    /// the first point is nearly linear whatever the units of the model). When the structure
+    /// has a verified mirror symmetry, the unknowns are restricted to the invariant class of
+    /// the starting mode ([`crate::symmetry`]); [`Start::unrestricted`] undoes that.
+    pub fn from_linear_mode<S: MechanicalSystem + ?Sized>(
+        system: &S,
+        modes: &[LinearMode],
+        index: usize,
+        energy: Option<f64>,
+    ) -> Result<Self, StartError> {
+        let mode = modes.get(index).ok_or(StartError::NoSuchMode {
+            index,
+            count: modes.len(),
+        })?;
+        if mode.rigid {
+            return Err(StartError::RigidMode(index));
+        }
+        let n = system.dofs();
+        // Rigid-body modes are left out of the unknowns only when the nonlinear forces leave
+        // them alone; otherwise they are kept like any other mode.
+        let amplitude_scale = weakly_nonlinear_amplitude(system, &mode.shape, 1.0);
+        let decoupled = rigid_modes_decouple(system, modes, amplitude_scale);
+        let kept = |k: usize| !modes[k].rigid || !decoupled;
+        // Kept modes, those of the starting mode's invariant class first.
+        let class = if decoupled {
+            invariant_class(system, modes, index, amplitude_scale)
+        } else {
+            None
+        };
+        let mut order: Vec<usize> = match &class {
+            Some((_, members)) => members.clone(),
+            None => (0..modes.len()).filter(|&k| kept(k)).collect(),
+        };
+        let unknown_columns = order.len();
+        let rest: Vec<usize> = (0..modes.len())
+            .filter(|k| kept(*k) && !order.contains(k))
+            .collect();
+        order.extend(rest);
+        let basis: Vec<f64> = order.iter().flat_map(|&k| modes[k].shape.clone()).collect();
+        let amplitude = match energy {
+            Some(e) if e.is_finite() && e > 0.0 => (2.0 * e).sqrt() / mode.frequency,
+            Some(e) => {
+                return Err(StartError::Invalid(format!(
+                    "start energy must be positive, got {e}"
+                )));
+            }
+            None => weakly_nonlinear_amplitude(system, &mode.shape, 1e-4),
+        };
+        let mut z0 = vec![0.0; 2 * n];
+        for (z, s) in z0.iter_mut().zip(&mode.shape) {
+            *z = amplitude * s;
+        }
+        Ok(Self {
+            mass_basis: times_mass(system, &basis),
+            basis,
+            unknown_columns,
+            symmetry: class.map(|(parity, _)| parity),
+            amplitude_scale,
+            omega: mode.frequency,
+            z0,
+            period: 2.0 * std::f64::consts::PI / mode.frequency,
+            half_period: true,
+            pin: None,
+            phase: None,
+        })
+    }
+
+    /// Starts from a guess of a periodic motion: its initial state `z0 = [x0; v0]` and
+    /// period. Every elastic mode is an unknown; with non-zero velocities the
+    /// flow-orthogonal phase condition is used. The first corrector holds the projection on
+    /// `z0` fixed.
+    pub fn from_state<S: MechanicalSystem + ?Sized>(
+        system: &S,
+        z0: &[f64],
+        period: f64,
+    ) -> Result<Self, StartError> {
+        let n = system.dofs();
+        if z0.len() != 2 * n {
+            return Err(StartError::Invalid(format!(
+                "the state has length {}, expected 2 x {n} dofs",
+                z0.len()
+            )));
+        }
+        if !(period.is_finite() && period > 0.0) || z0.iter().any(|v| !v.is_finite()) {
+            return Err(StartError::Invalid(format!(
+                "the period must be positive and the state finite (period {period})"
+            )));
+        }
+        let modes = linear_modes(system)?;
+        let elastic: Vec<&LinearMode> = modes.iter().filter(|m| !m.rigid).collect();
+        let basis: Vec<f64> = elastic.iter().flat_map(|m| m.shape.clone()).collect();
+        let shape_norm = linalg::norm(&z0[..n]);
+        let amplitude_scale = if shape_norm > 0.0 {
+            let shape: Vec<f64> = z0[..n].iter().map(|x| x / shape_norm).collect();
+            weakly_nonlinear_amplitude(system, &shape, 1.0)
+        } else {
+            1.0
+        };
+        let moving = z0[n..].iter().any(|&v| v != 0.0);
+        Ok(Self {
+            mass_basis: times_mass(system, &basis),
+            unknown_columns: elastic.len(),
+            basis,
+            symmetry: None,
+            amplitude_scale,
+            omega: 2.0 * std::f64::consts::PI / period,
+            z0: z0.to_vec(),
+            period,
+            half_period: !moving,
+            pin: None,
+            phase: moving.then_some(PhaseCondition::FlowOrthogonal),
+        })
+    }
+
+    /// The shooting problem of a branch from this start: its unknowns, scales and settings
+    /// (half-period shooting only for odd systems under the zero-velocity phase condition).
+    pub fn shooting<'a, S: MechanicalSystem + ?Sized>(
+        &self,
+        system: &'a S,
+        settings: &Settings,
+    ) -> Shooting<'a, S> {
+        let phase = self.phase.unwrap_or(settings.shooting.phase);
+        let setup = ShootingSetup {
+            basis: self.basis.clone(),
+            mass_basis: self.mass_basis.clone(),
+            unknown_columns: self.unknown_columns,
+            omega_ref: self.omega,
+            phase,
+            amplitude_scale: self.amplitude_scale,
+            half_period: self.half_period
+                && settings.shooting.half_period
+                && phase == PhaseCondition::ZeroVelocity
+                && is_odd(system, self.amplitude_scale),
+            phase_reference: self.z0.clone(),
+        };
+        Shooting::new(system, setup, settings)
+    }
+
+    /// The same start with the unknowns spanning every elastic mode (no symmetry restriction).
+    pub fn unrestricted(mut self) -> Self {
+        self.unknown_columns = self.basis.len() / (self.z0.len() / 2);
+        self.symmetry = None;
+        self
+    }
+
+    /// The first guess in the unknowns of `shooting`, and the direction the first corrector
+    /// pins (docs/method.md eq. (15)).
+    pub fn first_guess<S: MechanicalSystem + ?Sized>(
+        &self,
+        shooting: &Shooting<'_, S>,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let u0 = shooting.unknowns_from_state(&self.z0, self.period);
+        let pin = match &self.pin {
+            Some(direction) => shooting.unknowns_from_state(direction, 0.0),
+            None => u0.clone(),
+        };
+        (u0, pin)
+    }
+}
+
+/// `M B` for the columns of `basis`.
+fn times_mass<S: MechanicalSystem + ?Sized>(system: &S, basis: &[f64]) -> Vec<f64> {
+    let n = system.dofs();
+    let mut out = vec![0.0; basis.len()];
+    system.mass().apply(basis, basis.len() / n, &mut out);
+    out
+}
+
+/// Whether every rigid-body mode `u` decouples from the nonlinear forces:
+/// `f_int(x + c u) = f_int(x)` and `uᵀ f_int(x) = 0` at sample states (true of forces that
+/// depend on differences of displacements, as in a free-floating structure). Only then is a
+/// rigid shift periodic for every period and a rigid velocity a pure drift, so that the rigid
+/// modes can be removed from the shooting unknowns and from the Floquet analysis.
+fn rigid_modes_decouple<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    modes: &[LinearMode],
+    amplitude: f64,
+) -> bool {
+    let n = system.dofs();
+    let samples = sample_states(n, amplitude);
+    modes.iter().filter(|m| m.rigid).all(|rigid| {
+        samples.iter().all(|x| {
+            let shifted: Vec<f64> = x
+                .iter()
+                .zip(&rigid.shape)
+                .map(|(a, u)| a + 0.7 * amplitude * u)
+                .collect();
+            let (mut f, mut g) = (vec![0.0; n], vec![0.0; n]);
+            system.internal_force(x, &mut f);
+            system.internal_force(&shifted, &mut g);
+            let scale = f.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+            let invariant = f
+                .iter()
+                .zip(&g)
+                .all(|(a, b)| (a - b).abs() <= 1e-10 * scale);
+            let projection: f64 = linalg::dot(&f, &rigid.shape);
+            let norm_u = linalg::norm(&rigid.shape);
+            invariant && projection.abs() <= 1e-10 * scale * norm_u * (n as f64).sqrt()
+        })
+    })
+}
+
+/// The smallest amplitude `c` at which `‖f_nl(c φ)‖ = ratio ‖K c φ‖` (1 when the model is
+/// linear along `φ`), with `K = K_t(0)` and `f_nl = f_int - K x`: the first crossing found by
+/// scanning `log c` upwards in half decades from 1e-12, then bisected. (The first crossing,
+/// not any: a non-polynomial force such as the pendulum's `sin θ - θ` oscillates about the
+/// ratio far away.)
+// Negated comparisons are deliberate: a NaN ratio must count as "not above".
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+fn weakly_nonlinear_amplitude<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    shape: &[f64],
+    ratio: f64,
+) -> f64 {
+    let n = shape.len();
+    let zero = vec![0.0; n];
+    let mut k_phi = vec![0.0; n];
+    system.tangent_stiffness(
+        &zero,
+        Block::new(shape, n, 1, n),
+        BlockMut::new(&mut k_phi, n, 1, n),
+    );
+    let k_norm = linalg::norm(&k_phi);
+    let above = |log_c: f64| {
+        let c = 10f64.powf(log_c);
+        let x: Vec<f64> = shape.iter().map(|s| c * s).collect();
+        let mut f = vec![0.0; n];
+        system.internal_force(&x, &mut f);
+        let nonlinear: Vec<f64> = f.iter().zip(&k_phi).map(|(f, k)| f - c * k).collect();
+        linalg::norm(&nonlinear) / (c * k_norm) > ratio
+    };
+    const LOWEST: f64 = -12.0;
+    if above(LOWEST) {
+        return 10f64.powf(LOWEST);
+    }
+    let Some(first) = (1..=48)
+        .map(|k| LOWEST + 0.5 * k as f64)
+        .find(|&log_c| above(log_c))
+    else {
+        return 1.0;
+    };
+    let (mut lo, mut hi) = (first - 0.5, first);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if above(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    10f64.powf(lo)
+}
