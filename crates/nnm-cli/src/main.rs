@@ -1,4 +1,4 @@
-//! `nnm`: nonlinear normal modes from the command line (SPEC §5).
+//! `nnm`: nonlinear normal modes from the command line.
 
 mod bench;
 mod run;
@@ -26,7 +26,7 @@ struct Cli {
 enum Command {
     /// Linear modes of a model (or job) file, in ascending frequency.
     Modes {
-        /// TOML file with a [model] section.
+        /// TOML file with a `[model]` section.
         file: PathBuf,
         /// Also write DIR/modes.csv (index,frequency_rad_s,label,pattern,rigid).
         #[arg(long, value_name = "DIR")]
@@ -34,7 +34,7 @@ enum Command {
     },
     /// Compute every branch of a job: DIR/<name>.csv and .json per branch, DIR/fep.png/.svg.
     Run {
-        /// Job file (TOML): [model] and [[branch]] sections.
+        /// Job file (TOML): `[model]` and `[[branch]]` sections.
         job: PathBuf,
         /// Output folder (created if missing).
         #[arg(long, value_name = "DIR")]
@@ -77,7 +77,7 @@ enum Command {
 
 #[derive(Subcommand, Clone)]
 enum Example {
-    /// The paper's 30-sector nonlinear bladed disk: the whole study of SPEC §3 (`nnm study`).
+    /// The paper's 30-sector nonlinear bladed disk: the whole study of docs/method.md §11 (`nnm study`).
     BladedDisk(ExampleArgs),
     /// Duffing oscillator against its exact period.
     Duffing(ExampleArgs),

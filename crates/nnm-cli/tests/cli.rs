@@ -1,4 +1,4 @@
-//! The command-line contract of SPEC §5: outputs, and one-line errors with a non-zero exit for
+//! The command-line contract (README, "Command line"): outputs, and one-line errors with a non-zero exit for
 //! bad input (never a panic).
 
 use std::path::{Path, PathBuf};
@@ -238,7 +238,7 @@ fn run_writes_csv_and_json_per_branch() {
     assert!(out.join("fep.png").exists() && out.join("fep.svg").exists());
 }
 
-/// SPEC §6: an interrupted run loses nothing — every converged point is already in the CSV,
+/// README: an interrupted run loses nothing — every converged point is already in the CSV,
 /// and the JSON is a valid document (status "running") holding the same points.
 #[test]
 fn interrupted_run_keeps_every_point() {

@@ -1,4 +1,4 @@
-//! The 3:1 internal resonance of the bladed disk (SPEC §3, item 4): the (0,6) backbone,
+//! The 3:1 internal resonance of the bladed disk (docs/method.md §11): the (0,6) backbone,
 //! continued past its fold, travels along a tongue on which a third harmonic grows until the
 //! fundamental vanishes — where it meets the (1,12) family at a third of its period.
 //!

@@ -36,6 +36,8 @@
 //! assert!(branch.points.last().unwrap().frequency > 1.1);
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod analysis;
 pub mod bifurcation;
 pub mod branch;

@@ -1,6 +1,6 @@
 //! Linear modal analysis: `K v = ω² M v`, rigid-body modes, and for cyclic structures the
-//! `(n, d)` labels and sector-aligned standing waves of degenerate pairs (docs/method.md §7,
-//! Table 1 of the paper).
+//! `(n, d)` labels and sector-aligned standing waves of degenerate pairs (docs/method.md §11,
+//! eq. (53) and Table 1).
 
 use std::f64::consts::PI;
 

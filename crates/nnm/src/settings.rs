@@ -39,12 +39,12 @@ pub struct Limits {
     pub max_points: usize,
 }
 
-/// Pseudo-arclength continuation (docs/method.md §4).
+/// Pseudo-arclength continuation (docs/method.md §5).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ContinuationSettings {
     /// Convergence tolerance `ε` of the corrector on the problem's relative residual
-    /// (eq. (7); default 1e-8).
+    /// (eq. (19); default 1e-8).
     pub tolerance: f64,
     /// First step, relative to the starting amplitude (default 0.1).
     pub initial_step: f64,
@@ -73,7 +73,7 @@ pub struct StartSettings {
     pub symmetry: bool,
 }
 
-/// The shooting problem (docs/method.md §2–3).
+/// The shooting problem (docs/method.md §2–4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ShootingSettings {

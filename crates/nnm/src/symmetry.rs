@@ -7,7 +7,7 @@
 //! mirror-odd subspace is too when `f_nl` is odd. A branch started on a cos wave therefore
 //! lives in the even subspace, and restricting the shooting unknowns to it removes the
 //! degenerate partner (the sin wave, whose Floquet multipliers sit at +1 at low energy and
-//! make the Jacobian nearly singular in a second direction; docs/method.md, numerical traps) from
+//! make the Jacobian nearly singular in a second direction; docs/method.md §10 and §13) from
 //! the problem exactly:
 //! without it the least-squares corrector lets the branch drift onto the partner.
 //!

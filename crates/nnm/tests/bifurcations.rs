@@ -61,7 +61,7 @@ fn in_phase(max_step: f64) -> (Structure, Start, Settings, Branch) {
     (structure, start, settings, b)
 }
 
-/// SPEC §4 / issue 4: the in-phase branch loses stability at a branch point near E = 41. Its
+/// docs/method.md §12 / issue 4: the in-phase branch loses stability at a branch point near E = 41. Its
 /// location must not depend on the step that happened to bracket it, and the critical
 /// multiplier must sit at +1 in an independently computed (finite-difference, full-period)
 /// monodromy at the located point.

@@ -31,7 +31,8 @@ struct SparseChain {
 
 impl SparseChain {
     fn new() -> Self {
-        let (mut row_start, mut col, mut stiffness, mut diagonal) = (vec![0], vec![], vec![], vec![]);
+        let (mut row_start, mut col, mut stiffness, mut diagonal) =
+            (vec![0], vec![], vec![], vec![]);
         for i in 0..N {
             for j in i.saturating_sub(1)..(i + 2).min(N) {
                 if i == j {
@@ -56,8 +57,8 @@ impl SparseChain {
 
     fn times(&self, values: &[f64], x: &[f64], out: &mut [f64]) {
         let p = &self.pattern;
-        for i in 0..N {
-            out[i] = (p.row_start[i]..p.row_start[i + 1])
+        for (i, o) in out.iter_mut().enumerate().take(N) {
+            *o = (p.row_start[i]..p.row_start[i + 1])
                 .map(|k| values[k] * x[p.col[k]])
                 .sum();
         }
@@ -131,7 +132,10 @@ fn backbone<S: MechanicalSystem>(system: &S, mode: usize) -> Branch {
 fn custom_sparse_system_matches_the_same_model_as_a_structure() {
     let custom = SparseChain::new();
     let reference = structure();
-    let (a, b) = (linear_modes(&custom).unwrap(), linear_modes(&reference).unwrap());
+    let (a, b) = (
+        linear_modes(&custom).unwrap(),
+        linear_modes(&reference).unwrap(),
+    );
     for (p, q) in a.iter().zip(&b) {
         assert!((p.frequency - q.frequency).abs() < 1e-12 * q.frequency);
     }
@@ -142,7 +146,10 @@ fn custom_sparse_system_matches_the_same_model_as_a_structure() {
         assert!(p.points.len() > 5);
         for (x, y) in p.points.iter().zip(&q.points) {
             assert!((x.energy - y.energy).abs() < 1e-8 * y.energy, "mode {mode}");
-            assert!((x.frequency - y.frequency).abs() < 1e-9 * y.frequency, "mode {mode}");
+            assert!(
+                (x.frequency - y.frequency).abs() < 1e-9 * y.frequency,
+                "mode {mode}"
+            );
             assert_eq!(x.floquet.stable, y.floquet.stable, "mode {mode}");
         }
         let last = p.points.last().unwrap();

@@ -177,7 +177,7 @@ fn moduli(f: &floquet::Floquet) -> Vec<f64> {
 // 1. Mode (1,0) of the bladed disk is an exact Duffing oscillator
 // ---------------------------------------------------------------------------------------------
 
-/// Mode (1,0) of the bladed disk against the exact Duffing period (SPEC §3 item 2, §4).
+/// Mode (1,0) of the bladed disk against the exact Duffing period (docs/method.md §11, eq. (56)).
 ///
 /// Exact reduction. In mode (1,0) every sector moves alike: `X_i = X`, `x_i = x`, so the ring
 /// springs `K (X_i - X_{i±1})` are never stretched and each sector obeys
@@ -285,7 +285,7 @@ fn bladed_disk_mode_1_0_matches_duffing_reduction() {
 // 2. Sensitivity monodromy = finite-difference monodromy
 // ---------------------------------------------------------------------------------------------
 
-/// The monodromy from the variational equations equals the finite-difference one (SPEC §2):
+/// The monodromy from the variational equations equals the finite-difference one (docs/method.md §3):
 /// same unknowns, two fresh shooting objects, entrywise comparison.
 ///
 /// Tolerance: both integrate on the same step sequence (steps are controlled on the motion
@@ -418,7 +418,7 @@ fn compare_monodromies(
 // ---------------------------------------------------------------------------------------------
 
 /// In-phase and out-of-phase backbones of `x1'' + 2x1 - x2 + 0.5 x1³ = 0, x2'' + 2x2 - x1 = 0`
-/// (SPEC §4) up to E = 100.
+/// (docs/method.md §12) up to E = 100.
 ///
 /// Checks, each against an independent reference:
 /// - the linear limit: `ω(E)` extrapolated linearly to E = 0 from the first two points equals
@@ -683,7 +683,7 @@ fn backbone_0_6() -> &'static BladedBranch {
 }
 
 /// The (0,2) backbone to E = 1000 (shared by two tests). Its frequency rises by only ~0.03%
-/// up to there: n = 0 modes barely stretch the blade springs (SPEC §3 item 1).
+/// up to there: n = 0 modes barely stretch the blade springs (docs/method.md §11).
 fn backbone_0_2() -> &'static BladedBranch {
     static BRANCH: OnceLock<BladedBranch> = OnceLock::new();
     BRANCH.get_or_init(|| {
@@ -708,12 +708,12 @@ fn backbone_0_14() -> &'static BladedBranch {
 }
 
 /// Backbones of (1,5), (1,14) (to +15%) and (0,6) (to E = 1000) from the cos standing wave
-/// (SPEC §3):
+/// (docs/method.md §11):
 ///
 /// - (b) the first point is weakly nonlinear (cubic forces 1e-4 of the linear ones), so its
 ///   frequency is the linear one to ~1e-5: checked to 1e-4 relative;
 /// - (c) each branch reaches its target (stop reason FrequencyShiftMax / EnergyMax);
-/// - (d) (1,14) localizes (SPEC §3 item 3): at low energy the share of the energy held by the
+/// - (d) (1,14) localizes (docs/method.md §11): at low energy the share of the energy held by the
 ///   3 most energetic sectors is that of the linear standing wave (computed from the linear
 ///   shape; 1e-3 relative, since the first point differs from the linear shape by O(1e-4));
 ///   at the end of the branch it is more than twice that. The per-sector energies are checked
@@ -796,7 +796,7 @@ fn bladed_disk_backbones_reach_targets_and_localize() {
 }
 
 /// Every point of the (1,5), (1,14), (0,6), (0,2) and (0,14) backbones started on the cos standing
-/// wave stays on the cos family (SPEC §7): the component of x0 on ALL sin-pattern modes is
+/// wave stays on the cos family (docs/method.md §13): the component of x0 on ALL sin-pattern modes is
 /// below 1e-6 of ‖x0‖_M.
 ///
 /// Why it must hold: the blade springs act within a sector and the ring is mirror-symmetric,
@@ -836,7 +836,7 @@ fn bladed_disk_backbones_stay_on_their_family() {
 // 5. Similar vs nonsimilar modes
 // ---------------------------------------------------------------------------------------------
 
-/// (0,2) barely changes shape with energy, (0,14) markedly (SPEC §3 item 2: "nonsimilar ones
+/// (0,2) barely changes shape with energy, (0,14) markedly (docs/method.md §11: "nonsimilar ones
 /// change shape with energy").
 ///
 /// Measure: the mass-metric angle between x0 and the linear mode shape (the low-energy limit

@@ -1,4 +1,4 @@
-//! The bladed-disk study of the paper (SPEC §3), end to end: linear modes, every backbone,
+//! The bladed-disk study of the paper (docs/method.md §11), end to end: linear modes, every backbone,
 //! similar vs nonsimilar modes, localization along (1,14), the bifurcations along the
 //! backbones, the 3:1 tongue between (0,6) and (1,12), the sensitivity / finite-difference cost
 //! comparison, figures and `report.md`.

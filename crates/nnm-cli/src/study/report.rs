@@ -23,7 +23,7 @@ impl Report {
         let _ = writeln!(
             text,
             "# Nonlinear normal modes of a bladed disk\n\nJob: `{}`{}. Reproduces the study of the \
-             paper (SPEC §3): 30 sectors, each a disk mass coupled to its neighbours and a blade \
+             paper (docs/method.md §11): 30 sectors, each a disk mass coupled to its neighbours and a blade \
              attached by a linear and a cubic spring. All frequencies in rad/s; energy is the total \
              energy of the motion.\n",
             job.display(),

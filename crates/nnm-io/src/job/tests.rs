@@ -182,3 +182,21 @@ fn matrix_market_files_resolve_relative_to_the_job() {
     assert_eq!(job.structure.stiffness().get(1, 1), 2.0);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `Settings::KEYS` (what job files accept) is exactly the set of keys the settings
+/// serialize to, so no setting can be added without becoming settable, and no typo passes.
+#[test]
+fn settings_keys_are_the_serialized_fields() {
+    let table = toml::Table::try_from(Settings::default()).unwrap();
+    let mut serialized: Vec<&str> = table.keys().map(String::as_str).collect();
+    // `energy_start` is `None` by default, which TOML leaves out.
+    serialized.push("energy_start");
+    serialized.sort_unstable();
+    let mut keys = Settings::KEYS.to_vec();
+    keys.sort_unstable();
+    assert_eq!(serialized, keys);
+    let e = error(
+        "[model]\nfamily = \"two-dof\"\n[[branch]]\nname = \"a\"\nmode = 0\nenergy_max = 1.0\ntolerence = 1e-9",
+    );
+    assert!(e.contains("unknown field `tolerence`"), "{e}");
+}

@@ -1,4 +1,4 @@
-//! Event location between two points of a branch (docs/method.md §6): the continuation
+//! Event location between two points of a branch (docs/method.md §8): the continuation
 //! calls [`BifurcationDetector`] with each new segment, and the detector corrects trial points
 //! on it through [`Segment::point_at`].
 

@@ -1,4 +1,4 @@
-//! The Newton corrector on the bordered system (docs/method.md eq. (14)): the problem's rows
+//! The Newton corrector on the bordered system (docs/method.md eqs. (22)–(23)): the problem's rows
 //! plus one row `dᵀ (u - anchor) = 0`, solved in least squares (energy conservation makes one
 //! periodicity row of the shooting problem redundant).
 

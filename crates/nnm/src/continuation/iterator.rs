@@ -29,7 +29,7 @@ enum State {
     Finished,
 }
 
-/// Pseudo-arclength continuation of `problem` (docs/method.md §4), one point per
+/// Pseudo-arclength continuation of `problem` (docs/method.md §5), one point per
 /// [`Iterator::next`]. The iterator never ends by itself while points converge: the caller
 /// stops it (limits, an interrupt, a budget). After an error it yields `None`.
 pub struct Continuation<'p, P: ContinuationProblem, D: EventDetector<P>> {
@@ -47,7 +47,7 @@ pub struct Continuation<'p, P: ContinuationProblem, D: EventDetector<P>> {
 impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
     /// Continuation from the first guess `u0`; the first corrector holds the component of `u`
     /// along `pin` (last component ignored) fixed, which pins the amplitude (otherwise Newton
-    /// may slide to a trivial solution, docs/method.md eq. (15)).
+    /// may slide to a trivial solution, docs/method.md eq. (23)).
     pub fn new(
         problem: &'p mut P,
         u0: Vec<f64>,

@@ -1,5 +1,5 @@
 //! Pseudo-arclength continuation of a one-parameter family of solutions of `F(u) = 0`,
-//! `F: ℝ^{N+1} → ℝ^{rows}` (docs/method.md §4), apart from any particular problem.
+//! `F: ℝ^{N+1} → ℝ^{rows}` (docs/method.md §5), apart from any particular problem.
 //!
 //! - [`ContinuationProblem`] is what a problem provides: evaluation of its residual and a
 //!   linearisation that solves bordered systems, and the conversion of a converged solution
@@ -19,13 +19,13 @@ pub mod step;
 pub use iterator::{Continuation, Item, Segment};
 
 /// A linearisation of `F` at one `u`: the residual and the solution of bordered systems
-/// `[J; bᵀ] x = [r; c]` (eqs. (12)–(14)). Dense least squares today; a matrix-free Krylov
+/// `[J; bᵀ] x = [r; c]` (eqs. (20)–(23)). Dense least squares today; a matrix-free Krylov
 /// solver implements the same method.
 pub trait Linearization {
     /// The residual rows `F(u)` (possibly more rows than `N`: consistent overdetermined
     /// systems are solved in least squares).
     fn residual(&self) -> &[f64];
-    /// The problem's convergence measure (relative residual, eq. (7)).
+    /// The problem's convergence measure (relative residual, eq. (19)).
     fn relative_residual(&self) -> f64;
     /// Least-squares solution `x` of `J x = rhs`, `borderᵀ x = border_rhs`.
     fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64>;

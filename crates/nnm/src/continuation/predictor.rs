@@ -1,4 +1,4 @@
-//! The tangent of the branch and the predictor along it (docs/method.md eqs. (12)–(13)).
+//! The tangent of the branch and the predictor along it (docs/method.md eqs. (20)–(21)).
 
 use super::Linearization;
 use crate::linalg;

@@ -1,4 +1,4 @@
-//! Step-size control (docs/method.md §4.3): steps are relative to the amplitude, grow when the
+//! Step-size control (docs/method.md eq. (24)): steps are relative to the amplitude, grow when the
 //! corrector converges in fewer iterations than the target and shrink when it needs more, and
 //! are halved on any failure until the minimum step.
 

@@ -1,14 +1,15 @@
 //! Time integration of the motion `z' = g(z)` together with its sensitivities
-//! `Φ' = J(z(t)) Φ` (docs/method.md eqs. (2), (8)).
+//! `Φ' = J(z(t)) Φ` (docs/method.md eqs. (3), (11)).
 //!
 //! [`Integrator`] is the plug-in point: shooting asks it for the flow over one period (or half)
 //! and the derivative of that flow along a block of directions, and for the vector field. The
 //! implementations compute the sensitivities as the exact derivative of their own discrete
-//! flow ("internal differentiation", eq. (10)), so that the shooting Jacobian is the Jacobian
+//! flow ("internal differentiation", eq. (29)), so that the shooting Jacobian is the Jacobian
 //! of what Newton solves. Today: [`RungeKutta`], explicit embedded pairs ([`DOP853`] by
 //! default, [`DOPRI5`]) for non-stiff models; implicit schemes for stiff finite-element models
 //! plug in beside it.
 
+mod kernels;
 mod runge_kutta;
 mod tableau;
 
@@ -29,10 +30,10 @@ pub trait Integrator {
         steps: Steps<'_>,
     ) -> Result<Flow, IntegrationError>;
 
-    /// The vector field `g(z)` (eq. (2)).
+    /// The vector field `g(z)` (eq. (3)).
     fn field(&self, z: &[f64], out: &mut [f64]);
 
-    /// Total energy of the state `z` (eq. (3)).
+    /// Total energy of the state `z` (eq. (2)).
     fn energy(&self, z: &[f64]) -> f64;
 
     /// The local error tolerances in force.

@@ -1,5 +1,5 @@
 //! Explicit embedded Runge–Kutta integration of the motion with its sensitivities
-//! (docs/method.md eqs. (8)–(10)).
+//! (docs/method.md eqs. (27)–(31)).
 //!
 //! The state `z = [x; v]` obeys `z' = g(z) = [v; a(x)]`. A block of sensitivities
 //! `Φ = ∂z/∂(directions)` obeys the variational equations `Φ' = J(z(t)) Φ` with
@@ -7,7 +7,7 @@
 //! Runge–Kutta steps, with the variational stages evaluated at the motion's own stage states:
 //! `Φ(T)` is then the exact derivative of the discrete flow map for that step sequence
 //! ("internal differentiation"), so the shooting Jacobian and residual agree to round-off and
-//! Newton converges quadratically even at tight tolerances (method.md, numerical traps).
+//! Newton converges quadratically even at tight tolerances (docs/method.md §13).
 //!
 //! Step sizes are controlled on the motion only; the sensitivity pass runs after a step is
 //! accepted, so rejected steps cost no variational work.
@@ -30,6 +30,7 @@
 //! 1e-10), but DOPRI5 needs 3.8× (1e-8) to 5.7× (1e-10) more vector-field evaluations — and
 //! as many more variational evaluations, which dominate for many DOFs. DOP853 is the default.
 
+use super::kernels::{MAX_TERMS, Terms, linear_combination};
 use super::tableau::{ErrorEstimate, Tableau};
 use super::{Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tolerances};
 use crate::model::{Block, ExplicitForm, MechanicalSystem};
@@ -455,92 +456,6 @@ impl Nystrom {
             abar: tab.a.iter().map(|row| times_a(row)).collect(),
             b_sum: tab.b.iter().sum(),
             bbar: times_a(tab.b),
-        }
-    }
-}
-
-/// At most this many terms in one combination (stages + 1).
-const MAX_TERMS: usize = 24;
-
-/// The `(coefficient, block)` terms of one linear combination, on the stack.
-///
-/// Left uninitialised beyond `len`: filling all slots cost ~5% of a small system's
-/// integration (Duffing), where a combination has only a few two-entry terms.
-struct Terms<'a> {
-    terms: [std::mem::MaybeUninit<(f64, &'a [f64])>; MAX_TERMS],
-    len: usize,
-}
-
-impl<'a> Terms<'a> {
-    #[inline]
-    fn new() -> Self {
-        Self {
-            terms: [const { std::mem::MaybeUninit::uninit() }; MAX_TERMS],
-            len: 0,
-        }
-    }
-    #[inline]
-    fn push(&mut self, coefficient: f64, block: &'a [f64]) {
-        self.terms[self.len].write((coefficient, block));
-        self.len += 1;
-    }
-    #[inline]
-    fn as_slice(&self) -> &[(f64, &'a [f64])] {
-        // SAFETY: the first `len` slots were written by `push`; MaybeUninit<T> has T's layout.
-        unsafe { std::slice::from_raw_parts(self.terms.as_ptr().cast(), self.len) }
-    }
-}
-
-/// `out = base + Σ c_t x_t` (`out += Σ c_t x_t` without a base). Short vectors (the motion
-/// of systems with a few dofs) take a plain inlined loop: the kernel's dispatch, chunking and
-/// grouping cost more than their arithmetic there (Duffing: +50% instructions).
-#[inline]
-fn linear_combination(out: &mut [f64], base: Option<&[f64]>, terms: &[(f64, &[f64])]) {
-    const SHORT: usize = 32;
-    if out.len() >= SHORT {
-        return linear_combination_long(out, base, terms);
-    }
-    if let Some(b) = base {
-        out.copy_from_slice(b);
-    }
-    for &(c, x) in terms {
-        for (o, x) in out.iter_mut().zip(x) {
-            *o += c * x;
-        }
-    }
-}
-
-crate::linalg::multiversion! {
-    /// [`linear_combination`] in chunks small enough for `out` to stay in L1 while every term
-    /// streams through once, up to four terms a pass.
-    fn linear_combination_long(out: &mut [f64], base: Option<&[f64]>, terms: &[(f64, &[f64])]) {
-        const CHUNK: usize = 256;
-        let len = out.len();
-        let mut start = 0;
-        while start < len {
-            let end = (start + CHUNK).min(len);
-            let o = &mut out[start..end];
-            if let Some(b) = base {
-                o.copy_from_slice(&b[start..end]);
-            }
-            for group in terms.chunks(4) {
-                match *group {
-                    [(a, x)] => crate::linalg::combine::<WIDE, true, _>(o, [a], [&x[start..end]]),
-                    [(a, x), (b, y)] => crate::linalg::combine::<WIDE, true, _>(o, [a, b], [&x[start..end], &y[start..end]]),
-                    [(a, x), (b, y), (c, z)] => crate::linalg::combine::<WIDE, true, _>(
-                        o,
-                        [a, b, c],
-                        [&x[start..end], &y[start..end], &z[start..end]],
-                    ),
-                    [(a, x), (b, y), (c, z), (d, w)] => crate::linalg::combine::<WIDE, true, _>(
-                        o,
-                        [a, b, c, d],
-                        [&x[start..end], &y[start..end], &z[start..end], &w[start..end]],
-                    ),
-                    _ => unreachable!("groups of one to four"),
-                }
-            }
-            start = end;
         }
     }
 }

@@ -1,5 +1,5 @@
 //! The explicit form `x'' = a(x) = -M⁻¹ f_int(x)` of a [`MechanicalSystem`] and its tangent
-//! `A(x) = -M⁻¹ K_t(x)` (docs/method.md eqs. (2), (8)), derived once per problem for the
+//! `A(x) = -M⁻¹ K_t(x)` (docs/method.md eqs. (3), (12)), derived once per problem for the
 //! explicit integrators.
 //!
 //! With a diagonal mass and a tangent given on a sparse pattern, `A(x)` is assembled as one
@@ -91,7 +91,7 @@ impl<'a, S: MechanicalSystem + ?Sized> ExplicitForm<'a, S> {
         }
     }
 
-    /// `g(z) = [v; a(x)]`, the state-form vector field (eq. (2)).
+    /// `g(z) = [v; a(x)]`, the state-form vector field (eq. (3)).
     pub fn field(&self, z: &[f64], out: &mut [f64]) {
         let n = self.n;
         let (dx, dv) = out.split_at_mut(n);

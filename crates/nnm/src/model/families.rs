@@ -1,4 +1,4 @@
-//! Built-in model families: the validation systems of SPEC §4 and the bladed disk of SPEC §3.
+//! Built-in model families: the validation systems of docs/method.md §12 and the bladed disk of §11.
 
 use super::{CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, Structure};
 use crate::linalg::Mat;
@@ -24,7 +24,7 @@ fn finite(name: &str, value: f64) -> Result<(), ModelError> {
 }
 
 /// Duffing oscillator `x'' + ω₀² x + a x³ = 0` (unit mass). Its period is known exactly
-/// ([`crate::reference::duffing_period`]).
+/// (`duffing_period` in the crate's validation references).
 pub fn duffing(natural_frequency: f64, cubic: f64) -> Result<Structure, ModelError> {
     positive("natural_frequency", natural_frequency)?;
     finite("cubic", cubic)?;
@@ -49,7 +49,7 @@ pub fn two_dof(cubic: f64) -> Result<Structure, ModelError> {
 /// Largest number of sectors of a [`BladedDisk`] (its matrices are stored densely).
 pub const MAX_SECTORS: usize = 5_000;
 
-/// The nonlinear bladed disk of SPEC §3: `sectors` sectors, each a disk mass `X_i` coupled to
+/// The nonlinear bladed disk of docs/method.md §11: `sectors` sectors, each a disk mass `X_i` coupled to
 /// its neighbours (cyclically) and a blade mass `x_i` attached by a linear spring plus a cubic
 /// one. Dof `2i` is the disk of sector `i`, dof `2i+1` its blade.
 #[derive(Debug, Clone, PartialEq)]

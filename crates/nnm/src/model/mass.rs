@@ -1,5 +1,5 @@
 //! The mass matrix as an operator: applied to vectors, and solved with a factorisation made
-//! once (docs/method.md eq. (2): the explicit form needs `M⁻¹`, never formed).
+//! once (docs/method.md eq. (3): the explicit form needs `M⁻¹`, never formed).
 
 use super::Matrix;
 use crate::linalg::{self, Mat};

@@ -1,5 +1,5 @@
 //! The mechanical model `M x'' + f_int(x) = 0`, `f_int(x) = K x + f_nl(x)` (docs/method.md
-//! eq. (1)), in the form finite-element users have it.
+//! eqs. (1), (3)), in the form finite-element users have it.
 //!
 //! The plug-in points:
 //! - [`MechanicalSystem`]: any conservative structure — a mass operator, the internal force,
@@ -9,7 +9,7 @@
 //! - [`NonlinearElement`]: one nonlinear restoring-force law, to put into a [`Structure`]
 //!   with your own `M` and `K`.
 //!
-//! The explicit form `x'' = a(x) = -M⁻¹ f_int(x)` (eq. (2)) is what explicit integrators
+//! The explicit form `x'' = a(x) = -M⁻¹ f_int(x)` (eq. (3)) is what explicit integrators
 //! need; it is derived from the trait by [`ExplicitForm`], not implemented by users.
 
 mod block;
@@ -28,7 +28,7 @@ pub use mass::{Mass, MassNotPositiveDefinite, MassOperator};
 pub use matrix::{Matrix, SparseMatrix, SparsityPattern};
 pub use structure::{CyclicSymmetry, ModelError, Structure};
 
-/// A conservative structure `M x'' + f_int(x) = 0` (docs/method.md eq. (1)).
+/// A conservative structure `M x'' + f_int(x) = 0` (docs/method.md eqs. (1), (3)).
 ///
 /// Required: the number of dofs, the mass operator, the internal force, its tangent applied
 /// to a block of directions, and the potential. Optional: the tangent's values on a fixed
@@ -44,7 +44,7 @@ pub trait MechanicalSystem: Sync {
     /// Writes `f = f_int(x)` (same sign as `K x`: the restoring force).
     fn internal_force(&self, x: &[f64], f: &mut [f64]);
 
-    /// Writes `out[:, c] = K_t(x) dx[:, c]` for every column, `K_t = ∂f_int/∂x` (eq. (5)).
+    /// Writes `out[:, c] = K_t(x) dx[:, c]` for every column, `K_t = ∂f_int/∂x` (eq. (12)).
     fn tangent_stiffness(&self, x: &[f64], dx: Block<'_>, out: BlockMut<'_>);
 
     /// Potential energy `V(x)` with `∂V/∂x = f_int(x)`, `V(0) = 0`.
@@ -67,7 +67,7 @@ pub trait MechanicalSystem: Sync {
         None
     }
 
-    /// Total energy `E = ½ vᵀ M v + V(x)` (eq. (3)).
+    /// Total energy `E = ½ vᵀ M v + V(x)` (eq. (2)).
     fn energy(&self, x: &[f64], v: &[f64]) -> f64 {
         let mut mv = vec![0.0; v.len()];
         self.mass().apply(v, 1, &mut mv);

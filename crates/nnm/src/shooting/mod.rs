@@ -1,21 +1,21 @@
-//! The shooting problem for periodic motions (docs/method.md §2–3):
+//! The shooting problem for periodic motions (docs/method.md §2–4):
 //!
-//! `H(z0, T) = z(T; z0) - z0 = 0` (eq. (4)) plus a phase condition (eq. (5)), with the
-//! Jacobian `∂H/∂z0 = Φ(T) - I`, `∂H/∂T = g(z(T))` (eq. (9)) from the variational equations
+//! `H(z0, T) = z(T; z0) - z0 = 0` (eq. (6)) plus a phase condition (eqs. (7)–(8)), with the
+//! Jacobian `∂H/∂z0 = Φ(T) - I`, `∂H/∂T = g(z(T))` (eq. (13)) from the variational equations
 //! (or, as the paper's baseline, from finite differences). [`Shooting`] implements
-//! [`ContinuationProblem`], so a branch of periodic motions is continued like any other
+//! [`crate::continuation::ContinuationProblem`], so a branch of periodic motions is continued like any other
 //! family; its points are [`BranchPoint`]s, with Floquet stability.
 //!
 //! **Unknowns.** Initial states are restricted to the leading `r_u` columns `B_u` of an
 //! *elastic basis* `B` (`n × r`, mass-orthonormal linear modes without the rigid-body ones):
 //! `x0 = B_u a` and, for the general phase condition, `v0 = ω_ref B_u b`. This removes the
 //! rigid-body degeneracy exactly (a rigid shift is periodic for every `T`, a rigid velocity
-//! drifts; docs/method.md, numerical traps) and gives modal scaling; `B_u` may be a smaller invariant subspace (see
+//! drifts; docs/method.md §13) and gives modal scaling; `B_u` may be a smaller invariant subspace (see
 //! [`crate::symmetry`]), while Floquet multipliers always use the whole of `B`.
 //! The period enters as `τ = T / T_ref`. The unknown vector is `u = (a[, b], τ)`.
 //!
 //! **Equations.** Residual rows are weighted `W = diag(I, I/ω_ref)` so that displacement and
-//! velocity mismatches weigh alike, and the convergence test (eq. (7)) is applied in the same
+//! velocity mismatches weigh alike, and the convergence test (eq. (19)) is applied in the same
 //! metric: `‖W H‖ / ‖W z0‖ < eps`. With `ω_ref = 1` this is exactly `‖H‖ / ‖z0‖`; in general
 //! it makes the test independent of the time unit (the unweighted one effectively ignores
 //! velocity mismatches when `ω ≪ 1` and over-weights them when `ω ≫ 1`).
@@ -68,7 +68,7 @@ pub struct Evaluation {
     pub z_end: Vec<f64>,
     /// `T`.
     pub period: f64,
-    /// `‖W H‖ / ‖W z0‖`, the convergence measure (eq. (7)) in the weighted metric.
+    /// `‖W H‖ / ‖W z0‖`, the convergence measure (eq. (19)) in the weighted metric.
     pub relative_residual: f64,
     /// Weighted residual rows `[W H; h]`.
     pub rows: Vec<f64>,

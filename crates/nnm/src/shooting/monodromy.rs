@@ -1,5 +1,5 @@
 //! The monodromy of a converged point in modal coordinates, and the full-period check of
-//! half-period points (docs/method.md §5).
+//! half-period points (docs/method.md §7 and eq. (10)).
 
 use super::{Evaluation, PhaseCondition, Shooting, ShootingError};
 use crate::integrate::Steps;

@@ -51,7 +51,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
     }
 
     /// With [`Detail::Full`]: the Floquet analysis (the trivial pair deflated along `g(z0)`
-    /// and the family's tangent, docs/method.md eq. (17)) and, for a half-period problem, the
+    /// and the family's tangent, docs/method.md eqs. (34)–(35)) and, for a half-period problem, the
     /// check that the motion really is half-wave symmetric.
     // Negated comparison deliberate: a NaN residual must fail.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -82,7 +82,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
         let monodromy = self.monodromy(evaluation)?;
         // The trivial pair spans the flow direction g(z0) and the direction along the family:
         // deflate it rather than guess it from the spectrum (degenerate partners also sit
-        // near +1, docs/method.md numerical traps).
+        // near +1, docs/method.md §13).
         let flow_direction = self.modal_coordinates(&self.field(&evaluation.z0));
         let family_direction = self.modal_coordinates(&self.initial_state(&solution.tangent));
         let directions = [flow_direction.as_slice(), family_direction.as_slice()];

@@ -214,7 +214,7 @@ impl Start {
     }
 
     /// The first guess in the unknowns of `shooting`, and the direction the first corrector
-    /// pins (docs/method.md eq. (15)).
+    /// pins (docs/method.md eq. (23)).
     pub fn first_guess<S: MechanicalSystem + ?Sized>(
         &self,
         shooting: &Shooting<'_, S>,

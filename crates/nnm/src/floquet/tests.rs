@@ -1,0 +1,151 @@
+use super::*;
+
+#[test]
+fn trivial_pair_is_excluded_and_instability_detected() {
+    // Block diagonal: Jordan block at +1, a rotation (stable pair), a saddle (2, 1/2).
+    let mut m = Mat::<f64>::zeros(6, 6);
+    m[(0, 0)] = 1.0;
+    m[(0, 1)] = 3.0;
+    m[(1, 1)] = 1.0;
+    let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+    m[(2, 2)] = c;
+    m[(2, 3)] = -s;
+    m[(3, 2)] = s;
+    m[(3, 3)] = c;
+    m[(4, 4)] = 2.0;
+    m[(5, 5)] = 0.5;
+    let f = analyse(&m, DEFAULT_STABILITY_TOLERANCE).unwrap();
+    assert_eq!(f.multipliers.len(), 6);
+    assert!((f.max_modulus - 2.0).abs() < 1e-12);
+    assert!(!f.stable);
+    for k in f.trivial {
+        assert!((f.multipliers[k].0 - 1.0).abs() < 1e-12);
+    }
+    m[(4, 4)] = c;
+    m[(4, 5)] = s;
+    m[(5, 4)] = -s;
+    m[(5, 5)] = c;
+    let f = analyse(&m, DEFAULT_STABILITY_TOLERANCE).unwrap();
+    assert!(f.stable && (f.max_modulus - 1.0).abs() < 1e-12);
+}
+
+/// A degenerate partner pair closer to +1 than the numerically split trivial pair: the
+/// "closest to +1" rule mistakes it for the trivial pair and reports the wrong multiplier;
+/// deflation along the known directions does not.
+#[test]
+fn deflation_keeps_a_partner_pair_near_one() {
+    let mut m = Mat::<f64>::zeros(4, 4);
+    // Trivial Jordan block, perturbed as integration error does: eigenvalues 1 ± 1e-4.
+    m[(0, 0)] = 1.0;
+    m[(0, 1)] = 1.0;
+    m[(1, 0)] = 1e-8;
+    m[(1, 1)] = 1.0;
+    // Partner pair (1 + 1e-5, 1/(1 + 1e-5)): slightly unstable.
+    m[(2, 2)] = 1.0 + 1e-5;
+    m[(3, 3)] = 1.0 / (1.0 + 1e-5);
+    let naive = analyse(&m, 1e-6).unwrap();
+    // Fooled: it reports the split trivial pair (1 + 1e-4) as the largest multiplier.
+    assert!(
+        (naive.max_modulus - (1.0 + 1e-4)).abs() < 1e-6,
+        "{}",
+        naive.max_modulus
+    );
+    let (e0, e1) = ([1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]);
+    let f = analyse_deflated(&m, [&e0, &e1], 1e-6).unwrap();
+    assert!(!f.stable);
+    assert!((f.max_modulus - (1.0 + 1e-5)).abs() < 1e-12);
+    assert!(f.reciprocity_defect < 1e-12);
+    for k in f.trivial {
+        assert!((f.multipliers[k].0 - 1.0).abs() < 2e-4);
+    }
+}
+
+/// A 2×2 block with eigenvalues `r e^{±iθ}`.
+fn rotation(m: &mut Mat<f64>, at: usize, r: f64, theta: f64) {
+    let (c, s) = (r * theta.cos(), r * theta.sin());
+    m[(at, at)] = c;
+    m[(at, at + 1)] = -s;
+    m[(at + 1, at)] = s;
+    m[(at + 1, at + 1)] = c;
+}
+
+/// One pair of each kind: elliptic, through +1, through -1, and a Krein quadruplet. The
+/// pairs must come out with the right partners and kinds, unstable ones first, and
+/// `σ = μ + 1/μ` must be the pair's invariant.
+#[test]
+fn pairs_are_matched_and_classified() {
+    let mut m = Mat::<f64>::zeros(12, 12);
+    m[(0, 0)] = 1.0;
+    m[(0, 1)] = 0.5;
+    m[(1, 1)] = 1.0;
+    rotation(&mut m, 2, 1.0, 0.7);
+    m[(4, 4)] = 1.3;
+    m[(5, 5)] = 1.0 / 1.3;
+    m[(6, 6)] = -1.2;
+    m[(7, 7)] = -1.0 / 1.2;
+    rotation(&mut m, 8, 1.1, 0.9);
+    rotation(&mut m, 10, 1.0 / 1.1, 0.9);
+    let f = analyse(&m, DEFAULT_STABILITY_TOLERANCE).unwrap();
+    assert_eq!(f.pairs.len(), 5);
+    assert_eq!(f.unstable_pairs, 4);
+    assert!(f.reciprocity_defect < 1e-12, "{}", f.reciprocity_defect);
+    let kinds: Vec<PairKind> = f.pairs.iter().map(|p| p.kind).collect();
+    assert_eq!(kinds.iter().filter(|k| **k == PairKind::Complex).count(), 2);
+    assert!(kinds.contains(&PairKind::PositiveReal));
+    assert!(kinds.contains(&PairKind::NegativeReal));
+    assert_eq!(kinds[4], PairKind::Elliptic, "unstable pairs first");
+    for p in &f.pairs {
+        let sigma = p.trace();
+        match p.kind {
+            PairKind::Elliptic => {
+                assert!((sigma.0 - 2.0 * 0.7f64.cos()).abs() < 1e-12 && sigma.1.abs() < 1e-12);
+                assert!(p.multiplier.1 > 0.0);
+            }
+            PairKind::PositiveReal => assert!((sigma.0 - (1.3 + 1.0 / 1.3)).abs() < 1e-12),
+            PairKind::NegativeReal => assert!((sigma.0 + 1.2 + 1.0 / 1.2).abs() < 1e-12),
+            PairKind::Complex => {
+                // (μ, 1/μ) with μ = 1.1 e^{±0.9i}: σ is complex, not 2 Re μ.
+                assert!(sigma.1.abs() > 0.1);
+                assert!((modulus(p.multiplier) - 1.1).abs() < 1e-12);
+            }
+        }
+    }
+}
+
+/// Split analysis of a block-diagonal monodromy (class {0, 1, 4, 5}, rest {2, 3}): the same
+/// multipliers as the whole-matrix analysis; and the whole-matrix path when the blocks
+/// are coupled.
+#[test]
+fn split_analysis_matches_the_whole_and_falls_back_when_coupled() {
+    let mut m = Mat::<f64>::zeros(6, 6);
+    // Class: trivial Jordan block on (0, 1), a saddle on (4, 5).
+    m[(0, 0)] = 1.0;
+    m[(0, 1)] = 0.7;
+    m[(1, 1)] = 1.0;
+    m[(4, 4)] = 1.5;
+    m[(5, 5)] = 1.0 / 1.5;
+    // Rest: a rotation on (2, 3).
+    rotation(&mut m, 2, 1.0, 0.4);
+    let (e0, e1) = (
+        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+    );
+    let class = [0, 1, 4, 5];
+    let whole = analyse_deflated(&m, [&e0, &e1], 1e-6).unwrap();
+    let split = analyse_deflated_split(&m, [&e0, &e1], &class, 1e-6).unwrap();
+    let sigmas = |f: &Floquet| {
+        let mut v: Vec<f64> = f.pairs.iter().map(|p| p.trace().0).collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    assert_eq!(sigmas(&whole).len(), 2);
+    for (a, b) in sigmas(&whole).iter().zip(sigmas(&split)) {
+        assert!((a - b).abs() < 1e-12, "{a} {b}");
+    }
+    assert_eq!(split.unstable_pairs, 1);
+    // Coupled blocks: the split is not valid and must not be used.
+    m[(2, 4)] = 0.3;
+    let coupled = analyse_deflated_split(&m, [&e0, &e1], &class, 1e-6).unwrap();
+    let reference = analyse_deflated(&m, [&e0, &e1], 1e-6).unwrap();
+    assert_eq!(coupled, reference);
+}
