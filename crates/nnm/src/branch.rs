@@ -17,8 +17,11 @@ use crate::shooting::{BranchPoint, ShootingStats, Start};
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[serde(rename_all = "kebab-case", tag = "reason", content = "detail")]
 pub enum StopReason {
+    /// A point's energy exceeded `limits.energy_max` (docs/method.md eq. (26)).
     EnergyMax,
+    /// `|ω/ω_ref - 1|` exceeded `limits.frequency_shift_max` (docs/method.md eq. (26)).
     FrequencyShiftMax,
+    /// The branch reached `limits.max_points` points (docs/method.md eq. (26)).
     MaxPoints,
     /// The observer asked to stop.
     Interrupted,
@@ -43,22 +46,31 @@ impl std::fmt::Display for StopReason {
 /// Work counters of a branch.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct BranchStats {
+    /// Converged points on the branch.
     pub points: usize,
+    /// Located events.
     pub events: usize,
     /// Corrector solves spent on locating events.
     pub location_steps: usize,
+    /// Newton solves of the corrector, those of event location included.
     pub newton_iterations: usize,
+    /// Steps rejected and retried at half the size (corrector failure, turn angle or a
+    /// suspicious correction; docs/method.md eq. (25)).
     pub rejected_steps: usize,
+    /// Integrations and their work, from the shooting problem.
     pub shooting: ShootingStats,
 }
 
 /// A computed branch.
 #[derive(Debug, Clone)]
 pub struct Branch {
+    /// Converged points in the order of the branch, the start's first.
     pub points: Vec<BranchPoint>,
     /// Located events, in the order of the branch.
     pub events: Vec<Event>,
+    /// Why the continuation ended.
     pub stop: StopReason,
+    /// Work counters.
     pub stats: BranchStats,
     /// Linear angular frequency of the starting mode.
     pub omega: f64,

@@ -16,10 +16,13 @@ pub type Complex = (f64, f64);
 /// Why a factorization failed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum LinalgError {
+    /// Cholesky failed: the matrix is not symmetric positive definite.
     #[error("matrix is not symmetric positive definite")]
     NotPositiveDefinite,
+    /// An eigenvalue or singular-value iteration did not converge.
     #[error("eigenvalue iteration did not converge")]
     NoConvergence,
+    /// The matrix has NaN or infinite entries.
     #[error("the matrix has non-finite entries")]
     NonFinite,
 }

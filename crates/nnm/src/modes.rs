@@ -27,6 +27,8 @@ pub struct CyclicLabel {
     /// Index of the frequency level among the modes with `d` nodal diameters (the paper's
     /// nodal circles: 0 = blade and disk in phase, 1 = out of phase, for the bladed disk).
     pub circles: usize,
+    /// Nodal diameters `d`: the dominant spatial harmonic over the sectors (docs/method.md
+    /// eq. (53)).
     pub diameters: usize,
     /// `None` for single modes (d = 0, or d = N/2); `Some` for each member of a pair.
     pub pattern: Option<StandingWave>,
@@ -37,7 +39,9 @@ pub struct CyclicLabel {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum StandingWave {
+    /// Sector `i` moves as `cos(2π d i / N)`: mirror-even (the default pattern).
     Cos,
+    /// Sector `i` moves as `sin(2π d i / N)`: mirror-odd.
     Sin,
 }
 
@@ -53,12 +57,16 @@ impl LinearMode {
 /// Why modal analysis failed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ModesError {
+    /// The mass matrix has no Cholesky factor.
     #[error("mass matrix is not positive definite")]
     MassNotPositiveDefinite,
+    /// `K` has an eigenvalue `ω²` below zero beyond round-off (the value held): the rest state
+    /// is unstable.
     #[error(
         "stiffness matrix has a negative eigenvalue ({0:.3e}): the equilibrium is unstable and has no normal modes"
     )]
     NegativeStiffness(f64),
+    /// The eigensolver failed.
     #[error("eigenvalue computation failed: {0}")]
     Eigen(#[from] LinalgError),
 }

@@ -13,16 +13,22 @@ use crate::integrate::IntegrationMethod;
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Settings {
+    /// Where the branch stops (docs/method.md eq. (26)).
     #[serde(flatten)]
     pub limits: Limits,
+    /// Corrector tolerance and step control (docs/method.md §5).
     #[serde(flatten)]
     pub continuation: ContinuationSettings,
+    /// First-guess energy and symmetry restriction of a start from a linear mode.
     #[serde(flatten)]
     pub start: StartSettings,
+    /// Phase condition, Jacobian and half-period shooting (docs/method.md §2–4).
     #[serde(flatten)]
     pub shooting: ShootingSettings,
+    /// Integration scheme, and its accuracy relative to the continuation tolerance.
     #[serde(flatten)]
     pub integration: IntegrationSettings,
+    /// Stability tolerance and event detection (docs/method.md §7–8).
     #[serde(flatten)]
     pub stability: StabilitySettings,
 }
@@ -77,7 +83,11 @@ pub struct StartSettings {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct ShootingSettings {
+    /// How the time shift is removed: zero velocity (default, docs/method.md eq. (7)) or
+    /// flow-orthogonal (eq. (8)).
     pub phase: crate::shooting::PhaseCondition,
+    /// Jacobian from the variational equations (default, docs/method.md eqs. (11)–(13)) or from
+    /// finite differences (eq. (32)).
     pub jacobian: crate::shooting::JacobianMethod,
     /// Shoot over half a period when the system is odd (checked at sample states; default
     /// true). Every point's full-period residual is still checked.
@@ -88,6 +98,7 @@ pub struct ShootingSettings {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct IntegrationSettings {
+    /// Runge–Kutta pair of the time integration (default DOP853).
     pub integrator: IntegrationMethod,
     /// Integrator relative tolerance as a fraction of the continuation tolerance (default
     /// 1e-3: the integration error must sit well below the residual Newton converges to).

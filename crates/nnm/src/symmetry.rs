@@ -23,7 +23,9 @@ use crate::modes::LinearMode;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Parity {
+    /// `R φ = φ` (cos standing waves).
     Even,
+    /// `R φ = -φ` (sin standing waves).
     Odd,
 }
 

@@ -75,6 +75,8 @@ impl EventKind {
 /// A located event.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Event {
+    /// What crossed: the energy's turning point, or a multiplier pair through `+1`, `-1` or
+    /// into a Krein collision.
     pub kind: EventKind,
     /// Index of the branch point it follows (the event lies between points `after` and
     /// `after + 1`).
@@ -88,6 +90,8 @@ pub struct Event {
     /// The branch's direction there in state space, `dz0/ds` (length 2n), and its period
     /// rate `dT/ds`: what switching needs of the parent, whatever unknowns it was posed in.
     pub state_tangent: Vec<f64>,
+    /// `dT/ds` at the event (s per unit arclength): with `state_tangent`, the parent's tangent
+    /// that branch switching re-expresses in its own unknowns (docs/method.md §9).
     pub period_rate: f64,
     /// The critical multiplier: the member of the critical pair nearest `+1` (fold, branch
     /// point) or `-1` (period doubling), or the colliding multiplier in the upper half plane.

@@ -38,17 +38,35 @@ struct Candidate<'a, S: MechanicalSystem + ?Sized> {
 /// Why a branch cannot be switched at an event.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum SwitchError {
+    /// The event (its kind named) is a fold or a Krein collision: no other family of periodic
+    /// motions of the same or twice the period crosses there.
     #[error(
         "a {0} has no other branch of periodic motions to switch to (only branch points and period doublings do)"
     )]
     NotABifurcation(&'static str),
+    /// The Jacobian at the event shows no null direction beside the parent's tangent
+    /// (docs/method.md eq. (47)), with the flow-orthogonal phase condition tried as well.
     #[error(
         "no second null direction at this {kind} (smallest singular values {values}): the event \
          may not be located precisely enough, or the new family lies outside the unknowns"
     )]
-    NoNullDirection { kind: &'static str, values: String },
+    NoNullDirection {
+        /// Name of the event's kind.
+        kind: &'static str,
+        /// The smallest singular values of the Jacobian, formatted for the message.
+        values: String,
+    },
+    /// `direction` is beyond the new null directions found (only a degenerate event has more
+    /// than one).
     #[error("direction {asked} asked, but the event has {available} new null direction(s) (0 to {})", available - 1)]
-    NoSuchDirection { asked: usize, available: usize },
+    NoSuchDirection {
+        /// The direction asked for (0-based).
+        asked: usize,
+        /// How many new null directions the event has.
+        available: usize,
+    },
+    /// The event's state does not fit the system, or the shooting problem or its SVD failed
+    /// there.
     #[error("the shooting problem could not be evaluated at the event: {0}")]
     Evaluation(String),
 }
@@ -56,6 +74,8 @@ pub enum SwitchError {
 /// What the switch found, beside the new start.
 #[derive(Debug, Clone)]
 pub struct Switch {
+    /// Start of the new branch at `u* + ε φ` (docs/method.md eq. (48)), its first corrector
+    /// pinned along `φ`.
     pub start: Start,
     /// The smallest singular values of the new problem's Jacobian at the event (the first two
     /// are the null directions; the gap to the third measures how clean the switch is).

@@ -7,20 +7,32 @@ use super::{ContinuationProblem, Linearization};
 /// A converged corrector.
 #[derive(Debug)]
 pub struct Corrected<E> {
+    /// The converged unknowns.
     pub u: Vec<f64>,
+    /// The problem's linearisation at `u`, reused for the tangent and the point.
     pub evaluation: E,
+    /// Newton solves it took (0 when `start` already met the tolerance).
     pub iterations: usize,
 }
 
 /// Why the corrector failed.
 #[derive(Debug, thiserror::Error)]
 pub enum CorrectorError<E: std::error::Error> {
+    /// The problem could not be evaluated (e.g. the time integration failed).
     #[error(transparent)]
     Problem(E),
+    /// The relative residual became NaN or infinite.
     #[error("non-finite residual")]
     NotFinite,
+    /// The residual did not fall below the tolerance within `max_iterations`, or grew a
+    /// thousandfold.
     #[error("residual {residual:.2e} after {iterations} Newton iterations")]
-    NoConvergence { residual: f64, iterations: usize },
+    NoConvergence {
+        /// Relative residual at the last iterate.
+        residual: f64,
+        /// Newton solves made.
+        iterations: usize,
+    },
 }
 
 /// Newton from `start` on `F(u) = 0`, `direction · (u - anchor) = 0`, until the problem's

@@ -15,7 +15,9 @@ use crate::settings::ContinuationSettings;
 /// follows it.
 #[derive(Debug, Clone)]
 pub enum Item<P, E> {
+    /// A converged, accepted point.
     Point(P),
+    /// A located event, yielded just before the point that follows it.
     Event(E),
 }
 
@@ -309,6 +311,7 @@ impl<P: ContinuationProblem> Segment<'_, P> {
         self.problem.amplitude(&self.previous.u)
     }
 
+    /// The problem being continued, read-only (e.g. to map a tangent to state space).
     pub fn problem(&self) -> &P {
         self.problem
     }

@@ -33,9 +33,12 @@ pub trait Linearization {
 
 /// A problem continued in `u ∈ ℝ^{N+1}`.
 pub trait ContinuationProblem {
+    /// One evaluation at `u`: residual, convergence measure and bordered solves.
     type Evaluation: Linearization;
     /// What a converged point carries for the caller.
     type Point: Clone;
+    /// Why an evaluation failed or a solution makes no acceptable point: the continuation
+    /// retries with a smaller step.
     type Error: std::error::Error + Send + Sync + 'static;
 
     /// `N + 1`, the number of unknowns.
@@ -68,6 +71,7 @@ pub trait ContinuationProblem {
 pub struct Solution {
     /// Index of the point on the branch (for a trial point between two points, the first's).
     pub index: usize,
+    /// The converged unknowns `u ∈ ℝ^{N+1}`.
     pub u: Vec<f64>,
     /// The unit tangent there, oriented along the branch.
     pub tangent: Vec<f64>,
@@ -88,6 +92,7 @@ pub enum Detail {
 
 /// Detects events between consecutive points and locates them.
 pub trait EventDetector<P: ContinuationProblem> {
+    /// What a located event is reported as (yielded as `Item::Event`).
     type Event;
     /// The events between the ends of `segment`, located, in the order of the branch.
     fn detect(&mut self, segment: &mut Segment<'_, P>) -> Vec<Self::Event>;
@@ -118,10 +123,15 @@ impl<P: ContinuationProblem, D: EventDetector<P>> EventDetector<P> for Option<D>
 /// Why continuation could not go on.
 #[derive(Debug, thiserror::Error)]
 pub enum ContinuationError {
+    /// A setting is out of range (`Settings::validate`).
     #[error(transparent)]
     Settings(#[from] crate::settings::SettingsError),
+    /// The first point could not be computed: a bad first guess or pin, or its corrector
+    /// (docs/method.md eq. (23)) failed; the text says why.
     #[error("the first point did not converge: {0}")]
     FirstPoint(String),
+    /// A step failed even at the minimum step size (docs/method.md eq. (24)); the text is the
+    /// last failure.
     #[error("no convergence at the minimum step ({0})")]
     StepTooSmall(String),
 }
@@ -129,8 +139,11 @@ pub enum ContinuationError {
 /// Work counters of a continuation.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct ContinuationStats {
+    /// Accepted points.
     pub points: usize,
+    /// Newton solves, those of event location included.
     pub newton_iterations: usize,
+    /// Steps rejected and retried at half the size.
     pub rejected_steps: usize,
     /// Corrector solves spent on locating events.
     pub location_steps: usize,

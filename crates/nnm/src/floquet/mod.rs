@@ -110,6 +110,7 @@ pub struct MultiplierPair {
     pub multiplier: Complex,
     /// The other member, `≈ 1/μ`.
     pub partner: Complex,
+    /// Where the pair sits: on the unit circle, or which way it left it (docs/method.md eq. (37)).
     pub kind: PairKind,
 }
 

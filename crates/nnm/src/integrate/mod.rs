@@ -71,8 +71,11 @@ impl IntegrationMethod {
 /// frequency times displacements: the scale keeps the test independent of the time unit).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tolerances {
+    /// Relative tolerance, on `max(|z_i|, |z_new,i|)`.
     pub relative: f64,
+    /// Absolute tolerance of the displacements (shooting sets it from the motion's size).
     pub absolute: f64,
+    /// Factor on `absolute` for the velocities: a frequency (shooting uses `ω_ref`).
     pub velocity_scale: f64,
 }
 
@@ -91,7 +94,10 @@ impl Tolerances {
 #[derive(Debug, Clone, Copy)]
 pub enum Steps<'a> {
     /// Error-controlled steps; `first_step` skips the initial-step heuristic.
-    Adaptive { first_step: Option<f64> },
+    Adaptive {
+        /// First step size to try (e.g. the previous integration's); `None`: estimated.
+        first_step: Option<f64>,
+    },
     /// Exactly these step sizes (e.g. a base run's, so that finite-difference perturbations
     /// see the same discrete map).
     Replay(&'a [f64]),
@@ -100,7 +106,9 @@ pub enum Steps<'a> {
 /// Work counters of one integration.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct IntegrationStats {
+    /// Accepted steps.
     pub steps: usize,
+    /// Steps rejected by the error control and retried smaller.
     pub rejected_steps: usize,
     /// Evaluations of the vector field `g(z)`.
     pub rhs_evaluations: usize,
@@ -124,21 +132,39 @@ pub struct Flow {
     pub z: Vec<f64>,
     /// `Φ(T)`, `2n × columns`, column-major (empty when no sensitivities were asked).
     pub sensitivity: Vec<f64>,
+    /// Number `k` of directions propagated (0 without sensitivities).
     pub columns: usize,
     /// The accepted step sizes, in order.
     pub steps: Vec<f64>,
+    /// Work counters of this integration.
     pub stats: IntegrationStats,
 }
 
 /// Why an integration failed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum IntegrationError {
+    /// The adaptive integration needed more than its step budget.
     #[error("time integration exceeded {max_steps} steps at t = {t:.6e}")]
-    TooManySteps { max_steps: usize, t: f64 },
+    TooManySteps {
+        /// The step budget.
+        max_steps: usize,
+        /// Time reached when it ran out.
+        t: f64,
+    },
+    /// The step size fell below `1e-14` of the duration.
     #[error("time step became too small at t = {t:.6e} (stiff or diverging motion)")]
-    StepSizeUnderflow { t: f64 },
+    StepSizeUnderflow {
+        /// Time at which the step collapsed.
+        t: f64,
+    },
+    /// The state became NaN or infinite.
     #[error("the motion became non-finite at t = {t:.6e}")]
-    NotFinite { t: f64 },
+    NotFinite {
+        /// Start of the step that produced it (0 for a non-finite initial state).
+        t: f64,
+    },
+    /// The request itself is wrong: a state or block of the wrong size, or a non-positive
+    /// duration (the text says which).
     #[error("invalid integration request: {0}")]
     InvalidInput(String),
 }

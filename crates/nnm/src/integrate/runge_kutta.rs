@@ -43,7 +43,9 @@ pub struct RungeKutta<'a, S: MechanicalSystem + ?Sized> {
     form: ExplicitForm<'a, S>,
     tableau: &'static Tableau,
     nystrom: Nystrom,
+    /// Local error tolerances of the step control (docs/method.md eq. (31)).
     pub tolerances: Tolerances,
+    /// Accepted steps allowed per integration before giving up (default 1 000 000).
     pub max_steps: usize,
     ws: Workspace,
 }
@@ -69,6 +71,7 @@ const MAX_GROWTH: f64 = 6.0;
 const MAX_SHRINK: f64 = 0.2;
 
 impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
+    /// An integrator of `system` by `tableau` with `tolerances`, and the default step budget.
     pub fn new(system: &'a S, tableau: &'static Tableau, tolerances: Tolerances) -> Self {
         Self {
             form: ExplicitForm::new(system),
@@ -80,6 +83,7 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
         }
     }
 
+    /// The Butcher tableau in use.
     pub fn tableau(&self) -> &'static Tableau {
         self.tableau
     }

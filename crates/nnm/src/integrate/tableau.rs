@@ -15,7 +15,9 @@ pub enum ErrorEstimate {
     /// which makes the estimate behave like an 8th-order one. `third` lists the
     /// `(stage, weight)` of the 3rd-order solution.
     Dop853 {
+        /// Error weights `e = b - b̂` of the 5th-order estimate, one per stage.
         fifth: &'static [f64],
+        /// The 3rd-order solution's non-zero weights; its error estimate is `b` minus them.
         third: [(usize, f64); 3],
     },
 }
@@ -23,15 +25,19 @@ pub enum ErrorEstimate {
 /// An explicit embedded Runge–Kutta pair.
 #[derive(Debug)]
 pub struct Tableau {
+    /// Name in settings and job files (`dopri5`, `dop853`).
     pub name: &'static str,
     /// Order of the propagated solution.
     pub order: u32,
     /// Exponent `1/(q+1)` of the step-size controller, `q` the order of the error estimate.
     pub controller_exponent: f64,
+    /// Nodes `c_i = Σ_j a_ij`: the stage times as fractions of the step.
     pub c: &'static [f64],
     /// Row `i` holds `a_{i,0..i}`.
     pub a: &'static [&'static [f64]],
+    /// Weights `b_i` of the propagated solution (docs/method.md eq. (27)).
     pub b: &'static [f64],
+    /// How the local error of a step is estimated (for the control of docs/method.md eq. (31)).
     pub error: ErrorEstimate,
     /// First-same-as-last: the last stage is evaluated at the new point, so it is the next
     /// step's first stage.

@@ -5,22 +5,32 @@
 /// A borrowed `rows × cols` column-major block with column stride `stride`.
 #[derive(Debug, Clone, Copy)]
 pub struct Block<'a> {
+    /// The entries: column `c` is `data[c·stride .. c·stride + rows]`.
     pub data: &'a [f64],
+    /// Rows: the length of one direction.
     pub rows: usize,
+    /// Columns: the number of directions.
     pub cols: usize,
+    /// Offset between the starts of consecutive columns (`≥ rows`).
     pub stride: usize,
 }
 
 /// The mutable counterpart of [`Block`].
 #[derive(Debug)]
 pub struct BlockMut<'a> {
+    /// The entries: column `c` is `data[c·stride .. c·stride + rows]`.
     pub data: &'a mut [f64],
+    /// Rows: the length of one direction.
     pub rows: usize,
+    /// Columns: the number of directions.
     pub cols: usize,
+    /// Offset between the starts of consecutive columns (`≥ rows`).
     pub stride: usize,
 }
 
 impl<'a> Block<'a> {
+    /// A view of `data` as `rows × cols` with column stride `stride` (the length is checked in
+    /// debug builds).
     pub fn new(data: &'a [f64], rows: usize, cols: usize, stride: usize) -> Self {
         debug_assert!(cols == 0 || data.len() >= (cols - 1) * stride + rows);
         Self {
@@ -37,6 +47,8 @@ impl<'a> Block<'a> {
 }
 
 impl<'a> BlockMut<'a> {
+    /// A mutable view of `data` as `rows × cols` with column stride `stride` (the length is
+    /// checked in debug builds).
     pub fn new(data: &'a mut [f64], rows: usize, cols: usize, stride: usize) -> Self {
         debug_assert!(cols == 0 || data.len() >= (cols - 1) * stride + rows);
         Self {

@@ -9,13 +9,19 @@ use super::{Block, BlockMut, NonlinearElement};
 /// Potential `V = c d^{p+1} / (p+1)` with `d = x_i - x_j`; tangent `k_t = p c d^{p-1}`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PolynomialSpring {
+    /// Dof the force acts on (0-based).
     pub i: usize,
+    /// Dof at the other end, which takes the opposite force; `None`: tied to ground.
     pub j: Option<usize>,
+    /// `c` in `f = c (x_i - x_j)^p`.
     pub coefficient: f64,
+    /// `p` (3 for the paper's cubic spring).
     pub exponent: u32,
 }
 
 impl PolynomialSpring {
+    /// The spring `f = c (x_i - x_j)^p` between dofs `i` and `j` (ground when `None`;
+    /// docs/method.md eq. (5)).
     pub fn new(i: usize, j: Option<usize>, coefficient: f64, exponent: u32) -> Self {
         Self {
             i,

@@ -43,6 +43,8 @@ impl<S: MechanicalSystem + ?Sized> std::fmt::Debug for ExplicitForm<'_, S> {
 }
 
 impl<'a, S: MechanicalSystem + ?Sized> ExplicitForm<'a, S> {
+    /// The explicit form of `system`: a diagonal mass inverted once and, when the system gives
+    /// a tangent pattern, `A = -M⁻¹ K_t` assembled on it (docs/method.md eq. (12)).
     pub fn new(system: &'a S) -> Self {
         let inverse_mass = system
             .mass()
@@ -67,10 +69,12 @@ impl<'a, S: MechanicalSystem + ?Sized> ExplicitForm<'a, S> {
         }
     }
 
+    /// The underlying system.
     pub fn system(&self) -> &'a S {
         self.system
     }
 
+    /// Number of dofs `n` (a state has `2n` components).
     pub fn dofs(&self) -> usize {
         self.n
     }

@@ -54,6 +54,7 @@ pub const MAX_SECTORS: usize = 5_000;
 /// one. Dof `2i` is the disk of sector `i`, dof `2i+1` its blade.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BladedDisk {
+    /// Number of sectors `N` (30 in the paper; at most `MAX_SECTORS` = 5 000).
     pub sectors: usize,
     /// `M`
     pub disk_mass: f64,
@@ -82,6 +83,8 @@ impl Default for BladedDisk {
 }
 
 impl BladedDisk {
+    /// Assembles the model of docs/method.md eq. (52) with its cyclic symmetry declared;
+    /// rejects out-of-range parameters.
     pub fn build(&self) -> Result<Structure, ModelError> {
         let n_s = self.sectors;
         if !(1..=MAX_SECTORS).contains(&n_s) {

@@ -28,11 +28,18 @@ pub trait MassOperator: Send + Sync {
 pub enum Mass {
     /// `M = diag(m)`; `inverse = 1/m`.
     Diagonal {
+        /// The masses `m_i`.
         diagonal: Vec<f64>,
+        /// `1/m_i`: a solve is a scaling.
         inverse: Vec<f64>,
     },
     /// Dense `M` with its Cholesky factor `M = L Lᵀ`.
-    Dense { matrix: Mat<f64>, factor: Mat<f64> },
+    Dense {
+        /// `M` itself, for products.
+        matrix: Mat<f64>,
+        /// The lower Cholesky factor `L`, for solves.
+        factor: Mat<f64>,
+    },
 }
 
 /// Why a mass matrix cannot be factorised.

@@ -7,7 +7,9 @@ use crate::linalg::{self, Mat};
 /// A real square matrix, dense or in compressed rows.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Matrix {
+    /// Dense storage (small hand-written models).
     Dense(Mat<f64>),
+    /// Compressed sparse rows (finite-element exports, Matrix Market).
     Sparse(SparseMatrix),
 }
 
@@ -24,7 +26,9 @@ pub struct SparseMatrix {
 /// holds columns `col[row_start[i]..row_start[i + 1]]`, sorted.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct SparsityPattern {
+    /// Row `i`'s entries are stored at `row_start[i]..row_start[i + 1]` (length `n + 1`).
     pub row_start: Vec<usize>,
+    /// Column of each stored entry, sorted within a row.
     pub col: Vec<usize>,
 }
 
@@ -86,12 +90,15 @@ impl SparseMatrix {
         }
     }
 
+    /// Size `n` of the `n × n` matrix.
     pub fn dimension(&self) -> usize {
         self.n
     }
+    /// Where the stored entries are.
     pub fn pattern(&self) -> &SparsityPattern {
         &self.pattern
     }
+    /// The stored entries, in the order of the pattern's `col`.
     pub fn values(&self) -> &[f64] {
         &self.values
     }
@@ -159,12 +166,14 @@ impl Matrix {
         Ok(Matrix::from_fn(n, cols, |i, j| rows[i][j]))
     }
 
+    /// Number of rows.
     pub fn nrows(&self) -> usize {
         match self {
             Matrix::Dense(a) => a.nrows(),
             Matrix::Sparse(a) => a.n,
         }
     }
+    /// Number of columns (a model's matrices must be square; `Structure::new` checks).
     pub fn ncols(&self) -> usize {
         match self {
             Matrix::Dense(a) => a.ncols(),

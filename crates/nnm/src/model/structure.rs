@@ -10,37 +10,66 @@ use super::{
 /// Why a model is rejected.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ModelError {
+    /// A matrix is not `n × n`, `n` the size of the mass matrix.
     #[error("{name} matrix is {rows}x{cols}, expected {expected}x{expected}")]
     WrongSize {
+        /// Which matrix (`mass` or `stiffness`).
         name: &'static str,
+        /// Its number of rows.
         rows: usize,
+        /// Its number of columns.
         cols: usize,
+        /// `n`, the size of the mass matrix.
         expected: usize,
     },
+    /// A matrix entry is NaN or infinite.
     #[error("{name} matrix has a non-finite entry at ({row}, {col})")]
     NotFinite {
+        /// Which matrix (`mass` or `stiffness`).
         name: &'static str,
+        /// Row of the entry (0-based).
         row: usize,
+        /// Column of the entry (0-based).
         col: usize,
     },
+    /// A matrix differs from its transpose by more than `1e-10` of its largest entry.
     #[error("{name} matrix is not symmetric: entry ({row}, {col}) differs from ({col}, {row})")]
     NotSymmetric {
+        /// Which matrix (`mass` or `stiffness`).
         name: &'static str,
+        /// Row of the mismatched entry (0-based, above the diagonal: `row < col`).
         row: usize,
+        /// Column of the mismatched entry (0-based).
         col: usize,
     },
+    /// The mass matrix is not positive definite (a non-positive diagonal mass, or no Cholesky
+    /// factor).
     #[error("mass matrix is not positive definite")]
     MassNotPositiveDefinite,
+    /// A nonlinear element uses a dof the model does not have.
     #[error("nonlinear element {} uses dof {dof}, but the model has {dofs} dofs", index + 1)]
     ElementDofOutOfRange {
+        /// The element's position in the list (0-based; messages count from 1).
         index: usize,
+        /// The dof it uses.
         dof: usize,
+        /// The model's number of dofs.
         dofs: usize,
     },
+    /// A nonlinear element's parameters are unusable (for front ends that build elements from
+    /// input).
     #[error("nonlinear element {} is invalid: {reason}", index + 1)]
-    InvalidElement { index: usize, reason: String },
+    InvalidElement {
+        /// The element's position in the list (0-based; messages count from 1).
+        index: usize,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The mass matrix is `0 × 0`.
     #[error("model has no degrees of freedom")]
     Empty,
+    /// A family parameter is out of range, or a declared cyclic symmetry does not fit the
+    /// model (the text says which).
     #[error("invalid model parameter: {0}")]
     InvalidParameter(String),
 }
@@ -50,7 +79,9 @@ pub enum ModelError {
 /// Used to label linear modes `(n, d)` and to build standing-wave shapes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct CyclicSymmetry {
+    /// Number of sectors `N`.
     pub sectors: usize,
+    /// Dofs of one sector; `sectors × dofs_per_sector` must be the model's dof count.
     pub dofs_per_sector: usize,
 }
 
@@ -228,6 +259,7 @@ impl Structure {
     pub fn stiffness(&self) -> &Matrix {
         &self.stiffness
     }
+    /// The nonlinear elements, in the order given (messages number them from 1).
     pub fn elements(&self) -> &[Box<dyn NonlinearElement>] {
         &self.elements
     }

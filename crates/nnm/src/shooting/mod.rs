@@ -109,16 +109,22 @@ impl Linearization for Evaluation {
 /// Why the shooting problem could not be evaluated, or a solution is not a valid point.
 #[derive(Debug, thiserror::Error)]
 pub enum ShootingError {
+    /// The time integration failed.
     #[error(transparent)]
     Integration(#[from] IntegrationError),
+    /// The unknowns give a period that is not positive and finite (the value held).
     #[error("non-positive period {0}")]
     NonPositivePeriod(f64),
+    /// The converged point's energy is NaN or infinite.
     #[error("non-finite energy {0}")]
     NonFiniteEnergy(f64),
+    /// The full-period residual (held) exceeds 100× the tolerance: a half-period solution that
+    /// is not periodic after all (docs/method.md §2).
     #[error(
         "the motion is not half-wave symmetric (full-period residual {0:.2e}); set half_period = false"
     )]
     NotHalfWaveSymmetric(f64),
+    /// The eigenvalues of the monodromy could not be computed.
     #[error("Floquet analysis failed: {0}")]
     Floquet(#[from] linalg::LinalgError),
 }
@@ -128,6 +134,7 @@ pub enum ShootingError {
 pub struct ShootingStats {
     /// Integrations of the motion (with or without sensitivities).
     pub integrations: usize,
+    /// Their work, summed (finite-difference runs included).
     pub integration: IntegrationStats,
 }
 
@@ -157,6 +164,7 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     /// The convergence tolerance (the full-period check of half-period points uses it).
     tolerance: f64,
     stability_tolerance: f64,
+    /// Work counters so far.
     pub stats: ShootingStats,
 }
 
@@ -180,9 +188,12 @@ pub struct ShootingSetup {
     pub basis: Vec<f64>,
     /// `M B`, for projections onto modal coordinates (`q = (MB)ᵀ x`).
     pub mass_basis: Vec<f64>,
+    /// How many leading columns of `basis` span the unknowns (`r_u`: fewer than `r` when
+    /// restricted to a symmetry class).
     pub unknown_columns: usize,
     /// Frequency scale of the branch.
     pub omega_ref: f64,
+    /// Phase condition of the branch (docs/method.md eqs. (7)–(8)).
     pub phase: PhaseCondition,
     /// Amplitude unit of the unknowns: `x0 = B_u (amplitude_scale · a)`. Chosen where the
     /// nonlinearity becomes strong, it makes `a` and `τ` both O(1) in the nonlinear regime,
@@ -280,6 +291,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         self
     }
 
+    /// The system being shot.
     pub fn system(&self) -> &'a S {
         self.system
     }
@@ -289,6 +301,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         self.state_basis.len() / (2 * self.n) + 1
     }
 
+    /// The phase condition in use (a start may override the settings').
     pub fn phase(&self) -> PhaseCondition {
         self.phase
     }

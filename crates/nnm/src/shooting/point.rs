@@ -8,6 +8,7 @@ use crate::model::MechanicalSystem;
 /// A converged point of a branch.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct BranchPoint {
+    /// Position on the branch (0 for the first point); at an event, the point it follows.
     pub index: usize,
     /// Total energy `E(z0)`.
     pub energy: f64,
@@ -19,6 +20,8 @@ pub struct BranchPoint {
     pub frequency: f64,
     /// Initial state `z0 = [x0; v0]`.
     pub z0: Vec<f64>,
+    /// Multipliers and stability (docs/method.md §7); empty for location trials that need
+    /// none.
     pub floquet: Floquet,
     /// `‖W H‖ / ‖W z0‖` at convergence (of the half-period problem when shooting over half a
     /// period).
@@ -31,6 +34,7 @@ pub struct BranchPoint {
     pub step: f64,
     /// Unknowns `u = (q, τ)` and unit tangent there (for restarts and branch switching).
     pub unknowns: Vec<f64>,
+    /// Unit tangent `du/ds`, oriented along the branch (docs/method.md eq. (20)).
     pub tangent: Vec<f64>,
 }
 

@@ -45,12 +45,22 @@ pub struct Start {
 /// Why a branch could not be started.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum StartError {
+    /// The mode asked for (0-based index) is a rigid-body mode: it has no NNM
+    /// (docs/method.md §10).
     #[error("mode {0} is a rigid-body mode: it has no nonlinear normal mode")]
     RigidMode(usize),
+    /// The mode index is out of range.
     #[error("mode index {index} out of range (the model has {count} modes)")]
-    NoSuchMode { index: usize, count: usize },
+    NoSuchMode {
+        /// The index asked for (0-based).
+        index: usize,
+        /// Number of linear modes of the model.
+        count: usize,
+    },
+    /// A bad start energy, state or period (the text says which).
     #[error("invalid start: {0}")]
     Invalid(String),
+    /// The linear modal analysis failed.
     #[error(transparent)]
     Modes(#[from] ModesError),
 }
