@@ -26,10 +26,17 @@ fn duffing_from_a_state_at_rest() {
     let start = Start::from_state(&system, &[1.5, 0.0], 2.0 * std::f64::consts::PI).unwrap();
     let branch = follow(&system, &start, 6);
     assert_eq!(branch.points.len(), 6);
-    assert!((branch.points[0].z0[0] - 1.5).abs() < 1e-9, "the pin holds the amplitude");
+    assert!(
+        (branch.points[0].z0[0] - 1.5).abs() < 1e-9,
+        "the pin holds the amplitude"
+    );
     for p in &branch.points {
         let exact = reference::duffing_period(1.0, 1.0, p.z0[0].abs());
-        assert!((p.period - exact).abs() < 1e-9 * exact, "{} vs {exact}", p.period);
+        assert!(
+            (p.period - exact).abs() < 1e-9 * exact,
+            "{} vs {exact}",
+            p.period
+        );
     }
 }
 
@@ -48,7 +55,11 @@ fn duffing_from_a_moving_state_uses_the_flow_orthogonal_phase() {
     let amplitude = reference::duffing_amplitude(1.0, 1.0, first.energy);
     let exact = reference::duffing_period(1.0, 1.0, amplitude);
     assert!((first.period - exact).abs() < 1e-9 * exact);
-    assert!((first.energy - 0.75).abs() < 1e-6, "energy {}", first.energy);
+    assert!(
+        (first.energy - 0.75).abs() < 1e-6,
+        "energy {}",
+        first.energy
+    );
 }
 
 /// A wrong-sized state or a non-positive period is refused with a one-line error.
@@ -56,7 +67,12 @@ fn duffing_from_a_moving_state_uses_the_flow_orthogonal_phase() {
 fn from_state_refuses_bad_input() {
     let system = two_dof(0.5).unwrap();
     for (state, period) in [(vec![1.0, 0.0], 6.0), (vec![1.0, 0.0, 0.0, 0.0], -1.0)] {
-        let error = Start::from_state(&system, &state, period).unwrap_err().to_string();
-        assert!(!error.contains('\n') && error.starts_with("invalid start"), "{error}");
+        let error = Start::from_state(&system, &state, period)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            !error.contains('\n') && error.starts_with("invalid start"),
+            "{error}"
+        );
     }
 }
