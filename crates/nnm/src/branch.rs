@@ -13,6 +13,14 @@ use crate::model::MechanicalSystem;
 use crate::settings::Settings;
 use crate::shooting::{BranchPoint, ShootingStats, Start};
 
+/// A first point that failed on a half-period problem: the likely cause, a motion that is
+/// not half-wave symmetric, is named beside the failure it wraps.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{0} (shooting over half a period; set half_period = false if the motion is not half-wave symmetric)"
+)]
+struct HalfPeriodHint(crate::continuation::BoxError);
+
 /// Why a branch ended.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 #[serde(rename_all = "kebab-case", tag = "reason", content = "detail")]
@@ -128,11 +136,11 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     let stop = loop {
         let item = match continuation.next() {
             Some(Ok(item)) => item,
-            Some(Err(ContinuationError::StepTooSmall(why))) => break StopReason::StepTooSmall(why),
+            Some(Err(ContinuationError::StepTooSmall(why))) => {
+                break StopReason::StepTooSmall(why.to_string());
+            }
             Some(Err(ContinuationError::FirstPoint(why))) if half_period => {
-                return Err(ContinuationError::FirstPoint(format!(
-                    "{why} (shooting over half a period; set half_period = false if the motion is not half-wave symmetric)"
-                )));
+                return Err(ContinuationError::FirstPoint(Box::new(HalfPeriodHint(why))));
             }
             Some(Err(error)) => return Err(error),
             None => break StopReason::MaxPoints,

@@ -6,7 +6,8 @@ use super::corrector::{Corrected, correct};
 use super::predictor::{predict, tangent};
 use super::step::StepControl;
 use super::{
-    ContinuationError, ContinuationProblem, ContinuationStats, Detail, EventDetector, Solution,
+    BoxError, ContinuationError, ContinuationProblem, ContinuationStats, Detail, EventDetector,
+    Solution,
 };
 use crate::linalg;
 use crate::settings::ContinuationSettings;
@@ -59,10 +60,13 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
     ) -> Result<Self, ContinuationError> {
         let m = u0.len();
         if m != problem.dimension() || pin.len() != m {
-            return Err(ContinuationError::FirstPoint(format!(
-                "the first guess has {m} unknowns, the problem {}",
-                problem.dimension()
-            )));
+            return Err(ContinuationError::FirstPoint(
+                format!(
+                    "the first guess has {m} unknowns, the problem {}",
+                    problem.dimension()
+                )
+                .into(),
+            ));
         }
         if problem.amplitude(&u0) == 0.0 {
             return Err(ContinuationError::FirstPoint(
@@ -116,7 +120,7 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             settings.max_iterations,
             &mut self.stats.newton_iterations,
         )
-        .map_err(|e| ContinuationError::FirstPoint(e.to_string()))?;
+        .map_err(|e| ContinuationError::FirstPoint(e.into()))?;
         let solution = Solution {
             index: 0,
             tangent: tangent(&first.evaluation, &pin),
@@ -127,7 +131,7 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
         let point = self
             .problem
             .point(&solution, &first.evaluation, Detail::Full)
-            .map_err(|e| ContinuationError::FirstPoint(e.to_string()))?;
+            .map_err(|e| ContinuationError::FirstPoint(e.into()))?;
         self.control = Some(StepControl::new(settings, self.problem.amplitude(&u0)));
         self.accept(solution, point.clone());
         Ok(point)
@@ -167,14 +171,19 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
                 settings.max_iterations,
                 &mut self.stats.newton_iterations,
             );
+            // A failure is retried at half the step, or ends the branch at the minimum step.
+            let mut retry = |why: BoxError, stats: &mut ContinuationStats| {
+                if at_minimum {
+                    return Err(ContinuationError::StepTooSmall(why));
+                }
+                stats.rejected_steps += 1;
+                control.reject();
+                Ok(())
+            };
             let corrected: Corrected<P::Evaluation> = match outcome {
                 Ok(c) => c,
-                Err(why) if at_minimum => {
-                    return Err(ContinuationError::StepTooSmall(why.to_string()));
-                }
-                Err(_) => {
-                    self.stats.rejected_steps += 1;
-                    control.reject();
+                Err(why) => {
+                    retry(why.into(), &mut self.stats)?;
                     continue;
                 }
             };
@@ -194,8 +203,7 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             let t_new = tangent(&corrected.evaluation, &t);
             let turned = linalg::dot(&t_new, &t) < settings.max_turn_angle.cos();
             if (suspicious || turned) && !at_minimum {
-                self.stats.rejected_steps += 1;
-                control.reject();
+                retry("slow or turning step".into(), &mut self.stats)?;
                 continue;
             }
             let solution = Solution {
@@ -210,12 +218,8 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
                 .point(&solution, &corrected.evaluation, Detail::Full)
             {
                 Ok(p) => p,
-                Err(why) if at_minimum => {
-                    return Err(ContinuationError::StepTooSmall(why.to_string()));
-                }
-                Err(_) => {
-                    self.stats.rejected_steps += 1;
-                    control.reject();
+                Err(why) => {
+                    retry(why.into(), &mut self.stats)?;
                     continue;
                 }
             };

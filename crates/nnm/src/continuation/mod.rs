@@ -127,14 +127,18 @@ pub enum ContinuationError {
     #[error(transparent)]
     Settings(#[from] crate::settings::SettingsError),
     /// The first point could not be computed: a bad first guess or pin, or its corrector
-    /// (docs/method.md eq. (23)) failed; the text says why.
+    /// (docs/method.md eq. (23)) or the problem failed; holds the cause (shown in the message,
+    /// so not also chained as a `source`, which would print it twice).
     #[error("the first point did not converge: {0}")]
-    FirstPoint(String),
-    /// A step failed even at the minimum step size (docs/method.md eq. (24)); the text is the
-    /// last failure.
+    FirstPoint(BoxError),
+    /// A step failed even at the minimum step size (docs/method.md eq. (24)); holds the last
+    /// failure.
     #[error("no convergence at the minimum step ({0})")]
-    StepTooSmall(String),
+    StepTooSmall(BoxError),
 }
+
+/// A boxed cause: the problem's own error type, or a corrector failure wrapping it.
+pub type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
 /// Work counters of a continuation.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
