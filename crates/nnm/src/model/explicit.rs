@@ -80,6 +80,7 @@ impl<'a, S: MechanicalSystem + ?Sized> ExplicitForm<'a, S> {
     }
 
     /// `a = -M⁻¹ f_int(x)`.
+    #[inline]
     pub fn acceleration(&self, x: &[f64], a: &mut [f64]) {
         self.system.internal_force(x, a);
         match &self.inverse_mass {
@@ -96,6 +97,7 @@ impl<'a, S: MechanicalSystem + ?Sized> ExplicitForm<'a, S> {
     }
 
     /// `g(z) = [v; a(x)]`, the state-form vector field (eq. (3)).
+    #[inline]
     pub fn field(&self, z: &[f64], out: &mut [f64]) {
         let n = self.n;
         let (dx, dv) = out.split_at_mut(n);

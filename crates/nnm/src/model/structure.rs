@@ -313,6 +313,7 @@ impl MechanicalSystem for Structure {
         &self.mass
     }
 
+    #[inline]
     fn internal_force(&self, x: &[f64], f: &mut [f64]) {
         let n = self.dofs();
         self.nonlinear_force(x, f);
