@@ -93,6 +93,24 @@ pub fn cholesky_solve_in_place(l: MatRef<'_, f64>, b: &mut [f64], cols: usize) {
     faer::linalg::triangular_solve::solve_upper_triangular_in_place(l.transpose(), rhs, Par::Seq);
 }
 
+/// A dense LU factorisation with partial pivoting (the implicit integrators' stage systems).
+pub struct DenseLu(faer::linalg::solvers::PartialPivLu<f64>);
+
+impl DenseLu {
+    /// Factorises the square matrix `a`.
+    pub fn new(a: MatRef<'_, f64>) -> Self {
+        Self(a.partial_piv_lu())
+    }
+
+    /// Solves `A X = B` in place for `cols` contiguous column-major columns of `b`.
+    pub fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+        use faer::linalg::solvers::Solve;
+        let n = b.len() / cols.max(1);
+        let rhs = faer::MatMut::from_column_major_slice_mut(b, n, cols);
+        self.0.solve_in_place(rhs);
+    }
+}
+
 /// Eigenvalues (ascending) and orthonormal eigenvectors of a symmetric matrix.
 pub fn symmetric_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), LinalgError> {
     let evd = a

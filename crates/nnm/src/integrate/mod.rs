@@ -9,10 +9,12 @@
 //! default, [`DOPRI5`]) for non-stiff models; implicit schemes for stiff finite-element models
 //! plug in beside it.
 
+mod gauss;
 mod kernels;
 mod runge_kutta;
 mod tableau;
 
+pub use gauss::{Collocation, GAUSS4, GAUSS6, GaussLegendre};
 pub use runge_kutta::RungeKutta;
 pub use tableau::{DOP853, DOPRI5, ErrorEstimate, Tableau};
 
@@ -53,14 +55,37 @@ pub enum IntegrationMethod {
     Dop853,
     /// Dormand–Prince 5(4).
     Dopri5,
+    /// Two-stage Gauss–Legendre collocation (implicit, order 4, symplectic): for stiff models.
+    Gauss4,
+    /// Three-stage Gauss–Legendre collocation (implicit, order 6, symplectic): for stiff models.
+    Gauss6,
 }
 
 impl IntegrationMethod {
-    /// The Butcher tableau of an explicit method.
-    pub fn tableau(self) -> &'static Tableau {
+    /// The relative tolerance the method is given for a shooting tolerance `tolerance`. The
+    /// explicit pairs control the *local* error of every step, which accumulates over the
+    /// period: `factor × tolerance` (`integration_factor`, default 1e-3). The collocation
+    /// methods estimate the *global* error over the horizon directly, so a tenth of the
+    /// tolerance is enough for Newton to converge to it — and a tighter target would make them
+    /// resolve stiff modes excited only at round-off-like amplitudes.
+    pub fn relative_tolerance(self, tolerance: f64, factor: f64) -> f64 {
         match self {
-            IntegrationMethod::Dop853 => &DOP853,
-            IntegrationMethod::Dopri5 => &DOPRI5,
+            IntegrationMethod::Dop853 | IntegrationMethod::Dopri5 => factor * tolerance,
+            IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 => 0.1 * tolerance,
+        }
+    }
+
+    /// The integrator of this method for `system`.
+    pub fn integrator<'a, S: crate::model::MechanicalSystem + ?Sized>(
+        self,
+        system: &'a S,
+        tolerances: Tolerances,
+    ) -> Box<dyn Integrator + 'a> {
+        match self {
+            IntegrationMethod::Dop853 => Box::new(RungeKutta::new(system, &DOP853, tolerances)),
+            IntegrationMethod::Dopri5 => Box::new(RungeKutta::new(system, &DOPRI5, tolerances)),
+            IntegrationMethod::Gauss4 => Box::new(GaussLegendre::new(system, &GAUSS4, tolerances)),
+            IntegrationMethod::Gauss6 => Box::new(GaussLegendre::new(system, &GAUSS6, tolerances)),
         }
     }
 }

@@ -198,3 +198,160 @@ fn rejects_bad_requests() {
     integrator.max_steps = 10_000;
     assert!(integrator.flow(&[3.0, 0.0], 50.0, None, adaptive).is_err());
 }
+
+// ------------------------------------------------------------------------------------------
+// Gauss–Legendre collocation
+// ------------------------------------------------------------------------------------------
+
+fn tight() -> Tolerances {
+    Tolerances {
+        relative: 1e-12,
+        absolute: 1e-12,
+        velocity_scale: 1.0,
+    }
+}
+
+/// The linear oscillator's flow and monodromy by both collocation methods, with their
+/// self-chosen steps, against the closed form.
+#[test]
+fn gauss_harmonic_oscillator_flow_and_sensitivity_are_exact() {
+    let w = 1.7;
+    let system = duffing(w, 0.0).unwrap();
+    let t = 2.3;
+    for method in [&GAUSS4, &GAUSS6] {
+        let mut integrator = GaussLegendre::new(&system, method, tight());
+        let eye = identity(2);
+        let flow = integrator
+            .flow(
+                &[0.4, -0.3],
+                t,
+                Some(Block::new(&eye, 2, 2, 2)),
+                Steps::Adaptive { first_step: None },
+            )
+            .unwrap();
+        let (c, s) = ((w * t).cos(), (w * t).sin());
+        let exact = [0.4 * c - 0.3 * s / w, -0.4 * w * s - 0.3 * c];
+        let phi = [c, -w * s, s / w, c];
+        for (a, b) in flow.z.iter().zip(&exact) {
+            assert!((a - b).abs() < 1e-10, "{}: {a} vs {b}", method.name);
+        }
+        for (a, b) in flow.sensitivity.iter().zip(&phi) {
+            assert!((a - b).abs() < 1e-10, "{}: {a} vs {b}", method.name);
+        }
+    }
+}
+
+/// Halving a fixed step divides the error of Duffing's closed orbit by about `2^(2s)`.
+#[test]
+fn gauss_observed_order_matches_2s() {
+    let (w0, alpha, amp) = (1.0, 1.0, 1.0);
+    let system = duffing(w0, alpha).unwrap();
+    let period = duffing_period(w0, alpha, amp);
+    for (method, steps) in [(&GAUSS4, 40usize), (&GAUSS6, 16)] {
+        let mut integrator = GaussLegendre::new(&system, method, tight());
+        let error = |n: usize, integrator: &mut GaussLegendre<'_, _>| {
+            let h = vec![period / n as f64; n];
+            let flow = integrator
+                .flow(&[amp, 0.0], period, None, Steps::Replay(&h))
+                .unwrap();
+            (flow.z[0] - amp).hypot(flow.z[1])
+        };
+        let (e1, e2) = (
+            error(steps, &mut integrator),
+            error(2 * steps, &mut integrator),
+        );
+        let observed = (e1 / e2).log2();
+        assert!(
+            (observed - method.order as f64).abs() < 0.5,
+            "{}: observed order {observed:.2} ({e1:.2e} → {e2:.2e})",
+            method.name
+        );
+    }
+}
+
+/// The sensitivities are the derivative of the discrete map: central differences of the
+/// same steps agree.
+#[test]
+fn gauss_sensitivity_matches_finite_differences_of_the_same_discrete_map() {
+    let system = crate::model::two_dof(0.5).unwrap();
+    let mut integrator = GaussLegendre::new(&system, &GAUSS6, tight());
+    let z0 = [1.2, -0.4, 0.3, 0.5];
+    let eye = identity(4);
+    let base = integrator
+        .flow(
+            &z0,
+            5.0,
+            Some(Block::new(&eye, 4, 4, 4)),
+            Steps::Adaptive { first_step: None },
+        )
+        .unwrap();
+    let delta = 1e-6;
+    for c in 0..4 {
+        let (mut zp, mut zm) = (z0, z0);
+        zp[c] += delta;
+        zm[c] -= delta;
+        let p = integrator
+            .flow(&zp, 5.0, None, Steps::Replay(&base.steps))
+            .unwrap();
+        let m = integrator
+            .flow(&zm, 5.0, None, Steps::Replay(&base.steps))
+            .unwrap();
+        for r in 0..4 {
+            let fd = (p.z[r] - m.z[r]) / (2.0 * delta);
+            let sens = base.sensitivity[c * 4 + r];
+            assert!(
+                (fd - sens).abs() < 1e-7 * (1.0 + sens.abs()),
+                "({r},{c}): {fd} vs {sens}"
+            );
+        }
+    }
+}
+
+/// Symplectic even where the step resolves nothing: on a stiff linear chain (frequencies 1
+/// and ~1414, steps of ~0.1 so `ωh ≈ 140` for the fast mode) the discrete monodromy satisfies
+/// `Φᵀ Ω Φ = Ω` (unit mass), so no mode is damped or amplified — the explicit schemes either
+/// need thousands of steps here or damp the fast mode.
+#[test]
+fn gauss_monodromy_is_symplectic_on_a_stiff_model() {
+    let k = 1e6;
+    let stiffness = crate::Mat::from_fn(2, 2, |i, j| if i == j { k + 1.0 } else { -k });
+    let system = crate::model::Structure::new(
+        crate::Mat::identity(2, 2),
+        stiffness,
+        vec![Box::new(crate::model::PolynomialSpring::cubic(
+            0, None, 0.3,
+        ))],
+    )
+    .unwrap();
+    let mut integrator = GaussLegendre::new(&system, &GAUSS6, tight());
+    let eye = identity(4);
+    let steps = vec![2.0 * std::f64::consts::PI / 64.0; 64];
+    let flow = integrator
+        .flow(
+            &[0.5, 0.5, 0.0, 0.0],
+            2.0 * std::f64::consts::PI,
+            Some(Block::new(&eye, 4, 4, 4)),
+            Steps::Replay(&steps),
+        )
+        .unwrap();
+    let phi = |r: usize, c: usize| flow.sensitivity[c * 4 + r];
+    // Entries reach ω ≈ 1414: round-off is relative to ‖Φ‖².
+    let scale = flow.sensitivity.iter().fold(0.0f64, |m, v| m.max(v * v));
+    // Ω = [[0, I], [-I, 0]]; (Φᵀ Ω Φ)_ab = Σ_i Φ_ia Φ_(i+2)b - Φ_(i+2)a Φ_ib.
+    for a in 0..4 {
+        for b in 0..4 {
+            let value: f64 = (0..2)
+                .map(|i| phi(i, a) * phi(i + 2, b) - phi(i + 2, a) * phi(i, b))
+                .sum();
+            let expected = match (a, b) {
+                (0, 2) | (1, 3) => 1.0,
+                (2, 0) | (3, 1) => -1.0,
+                _ => 0.0,
+            };
+            assert!(
+                (value - expected).abs() < 1e-12 * scale,
+                "({a},{b}): {value}"
+            );
+        }
+    }
+}

@@ -29,9 +29,7 @@ pub use start::{Start, StartError};
 
 use crate::continuation::Linearization;
 use crate::floquet::{DenseFloquet, FloquetSolver};
-use crate::integrate::{
-    Flow, IntegrationError, IntegrationStats, Integrator, RungeKutta, Steps, Tolerances,
-};
+use crate::integrate::{Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tolerances};
 use crate::linalg::{self, Mat};
 use crate::model::{Block, MechanicalSystem};
 use crate::settings::Settings;
@@ -242,17 +240,19 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             }
         }
         let tolerance = settings.continuation.tolerance;
-        let relative = settings.integration.integration_factor * tolerance;
+        let relative = settings
+            .integration
+            .integrator
+            .relative_tolerance(tolerance, settings.integration.integration_factor);
         let tolerances = Tolerances {
             relative,
             absolute: relative,
             velocity_scale: omega_ref,
         };
-        let integrator = RungeKutta::new(
-            system,
-            settings.integration.integrator.tableau(),
-            tolerances,
-        );
+        let integrator = settings
+            .integration
+            .integrator
+            .integrator(system, tolerances);
         Self {
             system,
             n,
@@ -267,7 +267,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             half_period,
             period_ref: 2.0 * std::f64::consts::PI / omega_ref,
             state_basis,
-            integrator: Box::new(integrator),
+            integrator,
             floquet: Box::new(DenseFloquet),
             first_step: None,
             phase_reference,
