@@ -26,8 +26,8 @@ use std::path::{Path, PathBuf};
 
 use nnm::Settings;
 use nnm::model::{
-    BladedDisk, CyclicSymmetry, Matrix, ModelError, NonlinearElement, PolynomialSpring, Structure,
-    duffing, two_dof,
+    BladedDisk, CantileverBeam, CyclicSymmetry, Matrix, ModelError, NonlinearElement,
+    PolynomialSpring, Structure, duffing, two_dof,
 };
 use nnm::modes::StandingWave;
 use serde::Deserialize;
@@ -112,6 +112,12 @@ struct ModelSpec {
     blade_stiffness: Option<f64>,
     cubic: Option<f64>,
     natural_frequency: Option<f64>,
+    elements: Option<usize>,
+    length: Option<f64>,
+    width: Option<f64>,
+    height: Option<f64>,
+    youngs_modulus: Option<f64>,
+    density: Option<f64>,
     mass: Option<MatrixSpec>,
     stiffness: Option<MatrixSpec>,
     #[serde(default)]
@@ -321,6 +327,12 @@ fn build_model(
         ("blade_stiffness", spec.blade_stiffness.is_some()),
         ("cubic", spec.cubic.is_some()),
         ("natural_frequency", spec.natural_frequency.is_some()),
+        ("elements", spec.elements.is_some()),
+        ("length", spec.length.is_some()),
+        ("width", spec.width.is_some()),
+        ("height", spec.height.is_some()),
+        ("youngs_modulus", spec.youngs_modulus.is_some()),
+        ("density", spec.density.is_some()),
         ("mass", spec.mass.is_some()),
         ("stiffness", spec.stiffness.is_some()),
         ("nonlinear", !spec.nonlinear.is_empty()),
@@ -337,10 +349,19 @@ fn build_model(
         ],
         "duffing" => &["natural_frequency", "cubic"],
         "two-dof" => &["cubic"],
+        "cantilever-beam" => &[
+            "elements",
+            "length",
+            "width",
+            "height",
+            "youngs_modulus",
+            "density",
+            "cubic",
+        ],
         "general" => &["mass", "stiffness", "nonlinear", "cyclic"],
         other => {
             return Err(invalid(format!(
-                "unknown model family `{other}` (expected \"bladed-disk\", \"duffing\", \"two-dof\", or no family with mass and stiffness)"
+                "unknown model family `{other}` (expected \"bladed-disk\", \"duffing\", \"two-dof\", \"cantilever-beam\", or no family with mass and stiffness)"
             )));
         }
     };
@@ -369,6 +390,20 @@ fn build_model(
         )
         .map_err(model_error)?,
         "two-dof" => two_dof(spec.cubic.unwrap_or(0.5)).map_err(model_error)?,
+        "cantilever-beam" => {
+            let d = CantileverBeam::default();
+            CantileverBeam {
+                elements: spec.elements.unwrap_or(d.elements),
+                length: spec.length.unwrap_or(d.length),
+                width: spec.width.unwrap_or(d.width),
+                height: spec.height.unwrap_or(d.height),
+                youngs_modulus: spec.youngs_modulus.unwrap_or(d.youngs_modulus),
+                density: spec.density.unwrap_or(d.density),
+                cubic: spec.cubic.unwrap_or(d.cubic),
+            }
+            .build()
+            .map_err(model_error)?
+        }
         _ => {
             let mass = spec
                 .mass

@@ -1,6 +1,8 @@
 //! Built-in model families: the validation systems of docs/method.md §12 and the bladed disk of §11.
 
-use super::{CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, Structure};
+use super::{
+    CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, SparseMatrix, Structure,
+};
 use crate::linalg::Mat;
 
 fn positive(name: &str, value: f64) -> Result<(), ModelError> {
@@ -46,7 +48,7 @@ pub fn two_dof(cubic: f64) -> Result<Structure, ModelError> {
     )
 }
 
-/// Largest number of sectors of a [`BladedDisk`] (its matrices are stored densely).
+/// Largest number of sectors of a [`BladedDisk`] (its modal analysis is still dense).
 pub const MAX_SECTORS: usize = 5_000;
 
 /// The nonlinear bladed disk of docs/method.md §11: `sectors` sectors, each a disk mass `X_i` coupled to
@@ -98,17 +100,20 @@ impl BladedDisk {
         finite("blade_stiffness", self.blade_stiffness)?;
         finite("cubic", self.cubic)?;
         let n = 2 * n_s;
-        let mass = Mat::from_fn(n, n, |i, j| match (i == j, i % 2) {
-            (true, 0) => self.disk_mass,
-            (true, _) => self.blade_mass,
-            _ => 0.0,
-        });
-        let mut stiffness = Mat::<f64>::zeros(n, n);
+        // Assembled sparse (duplicates summed): no dense n × n matrix for many sectors.
+        let mass: Vec<(usize, usize, f64)> = (0..n)
+            .map(|i| {
+                let m = if i % 2 == 0 {
+                    self.disk_mass
+                } else {
+                    self.blade_mass
+                };
+                (i, i, m)
+            })
+            .collect();
+        let mut stiffness: Vec<(usize, usize, f64)> = Vec::with_capacity(8 * n_s);
         let mut spring = |a: usize, b: usize, k: f64| {
-            stiffness[(a, a)] += k;
-            stiffness[(b, b)] += k;
-            stiffness[(a, b)] -= k;
-            stiffness[(b, a)] -= k;
+            stiffness.extend([(a, a, k), (b, b, k), (a, b, -k), (b, a, -k)]);
         };
         for i in 0..n_s {
             let (disk, blade) = (2 * i, 2 * i + 1);
@@ -124,9 +129,14 @@ impl BladedDisk {
                     as Box<dyn NonlinearElement>
             })
             .collect();
-        Structure::new(mass, stiffness, elements)?.with_cyclic_symmetry(CyclicSymmetry {
-            sectors: n_s,
-            dofs_per_sector: 2,
-        })
+        let sparse = |t: &[(usize, usize, f64)]| {
+            SparseMatrix::from_triplets(n, t).map_err(ModelError::InvalidParameter)
+        };
+        Structure::new(sparse(&mass)?, sparse(&stiffness)?, elements)?.with_cyclic_symmetry(
+            CyclicSymmetry {
+                sectors: n_s,
+                dofs_per_sector: 2,
+            },
+        )
     }
 }

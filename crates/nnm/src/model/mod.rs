@@ -12,6 +12,7 @@
 //! The explicit form `x'' = a(x) = -M⁻¹ f_int(x)` (eq. (3)) is what explicit integrators
 //! need; it is derived from the trait by [`ExplicitForm`], not implemented by users.
 
+mod beams;
 mod block;
 mod elements;
 mod explicit;
@@ -20,6 +21,7 @@ mod mass;
 mod matrix;
 mod structure;
 
+pub use beams::CantileverBeam;
 pub use block::{Block, BlockMut};
 pub use elements::PolynomialSpring;
 pub use explicit::ExplicitForm;
