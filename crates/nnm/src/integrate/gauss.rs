@@ -81,7 +81,8 @@ pub static GAUSS6: Collocation = Collocation {
     b: &[0.2777777777777778, 0.4444444444444444, 0.2777777777777778],
 };
 
-/// Newton iterations allowed per step before the step is declared failed.
+/// Newton iterations allowed per step (times four, counting refactorisations) before the
+/// step is declared failed.
 const MAX_NEWTON: usize = 12;
 /// The first step count tried when nothing is known yet.
 const FIRST_STEPS: usize = 16;
@@ -147,14 +148,60 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         }
     }
 
+    /// The stage states `X_i = x + h c_i v + h² Σ_j Ā_ij W_j` (eq. (32a)), `s × n`.
+    fn stage_states(&self, x: &[f64], v: &[f64], w: &[f64], h: f64) -> Vec<f64> {
+        let (n, s) = (x.len(), self.method.c.len());
+        let mut states = vec![0.0; s * n];
+        for i in 0..s {
+            for r in 0..n {
+                states[i * n + r] = x[r]
+                    + h * self.method.c[i] * v[r]
+                    + h * h * (0..s).map(|j| self.abar[i][j] * w[j * n + r]).sum::<f64>();
+            }
+        }
+        states
+    }
+
+    /// The exact stage Jacobian `J_ij = M δ_ij + h² Ā_ij K_t(X_i)` at the stage states, with
+    /// the dense tangents `K_t(X_i)` it was built from.
+    fn stage_jacobian(&self, states: &[f64], h: f64) -> (DenseLu, Vec<f64>) {
+        let system = self.form.system();
+        let s = self.method.c.len();
+        let n = states.len() / s;
+        let m = s * n;
+        let mut tangents = vec![0.0; s * n * n];
+        for i in 0..s {
+            system.tangent_stiffness(
+                &states[i * n..(i + 1) * n],
+                Block::new(&self.identity, n, n, n),
+                BlockMut::new(&mut tangents[i * n * n..(i + 1) * n * n], n, n, n),
+            );
+        }
+        let jacobian = Mat::<f64>::from_fn(m, m, |row, col| {
+            let (bi, r, bj, c) = (row / n, row % n, col / n, col % n);
+            let mut value = h * h * self.abar[bi][bj] * tangents[bi * n * n + c * n + r];
+            if bi == bj {
+                value += self.mass[(r, c)];
+            }
+            value
+        });
+        (DenseLu::new(jacobian.as_ref()), tangents)
+    }
+
     /// One step of size `h` from `z` (in place), with the sensitivities `phi` (`2n × k`
-    /// column-major) carried along. Returns the Newton iterations it took.
+    /// column-major) carried along.
+    ///
+    /// Newton on the stage accelerations reuses the factorisation of the previous step (kept
+    /// in `cache` with its step size) and refactors only when it converges slowly; with
+    /// sensitivities, the exact Jacobian at the converged stages is factorised once, used for
+    /// the variational step (eq. (32c)), and kept for the next step's Newton.
     fn step(
         &self,
         z: &mut [f64],
         h: f64,
         phi: &mut [f64],
         k: usize,
+        cache: &mut Option<(DenseLu, f64)>,
         stats: &mut IntegrationStats,
     ) -> Result<(), IntegrationError> {
         let system = self.form.system();
@@ -169,79 +216,66 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         for i in 1..s {
             w.copy_within(0..n, i * n);
         }
-        let stage_state = |w: &[f64], i: usize| -> Vec<f64> {
-            (0..n)
-                .map(|r| {
-                    x[r] + h * self.method.c[i] * v[r]
-                        + h * h * (0..s).map(|j| self.abar[i][j] * w[j * n + r]).sum::<f64>()
-                })
-                .collect()
-        };
-        let mut tangents = vec![0.0; s * n * n];
-        let mut jacobian = Mat::<f64>::zeros(m, m);
+        if cache.as_ref().is_none_or(|(_, size)| *size != h) {
+            let (lu, _) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h);
+            stats.tangent_evaluations += s;
+            *cache = Some((lu, h));
+        }
+        let mut fresh = false;
         let mut previous = f64::INFINITY;
-        let mut lu = None;
-        for iteration in 0..MAX_NEWTON {
-            let mut residual = vec![0.0; m];
+        let mut residual = vec![0.0; m];
+        let mut iterations = 0;
+        loop {
+            let states = self.stage_states(x, v, &w, h);
             for i in 0..s {
-                let xi = stage_state(&w, i);
-                let (ri, ki) = (
-                    &mut residual[i * n..(i + 1) * n],
-                    &mut tangents[i * n * n..(i + 1) * n * n],
-                );
-                system.internal_force(&xi, ri);
-                system.tangent_stiffness(
-                    &xi,
-                    Block::new(&self.identity, n, n, n),
-                    BlockMut::new(ki, n, n, n),
-                );
+                let ri = &mut residual[i * n..(i + 1) * n];
+                system.internal_force(&states[i * n..(i + 1) * n], ri);
                 let mw = linalg::times(self.mass.as_ref(), &w[i * n..(i + 1) * n]);
                 ri.iter_mut().zip(&mw).for_each(|(r, a)| *r += a);
             }
             stats.rhs_evaluations += s;
-            stats.tangent_evaluations += s;
-            for bi in 0..s {
-                for bj in 0..s {
-                    let factor = h * h * self.abar[bi][bj];
-                    let ki = &tangents[bi * n * n..(bi + 1) * n * n];
-                    for c in 0..n {
-                        for r in 0..n {
-                            let mut value = factor * ki[c * n + r];
-                            if bi == bj {
-                                value += self.mass[(r, c)];
-                            }
-                            jacobian[(bi * n + r, bj * n + c)] = value;
-                        }
-                    }
-                }
-            }
-            let factor = DenseLu::new(jacobian.as_ref());
             let mut delta: Vec<f64> = residual.iter().map(|r| -r).collect();
-            factor.solve_in_place(&mut delta, 1);
-            lu = Some(factor);
+            cache
+                .as_ref()
+                .expect("factorised")
+                .0
+                .solve_in_place(&mut delta, 1);
             if delta.iter().any(|d| !d.is_finite()) {
                 return Err(IntegrationError::NotFinite { t: f64::NAN });
             }
             w.iter_mut().zip(&delta).for_each(|(a, d)| *a += d);
+            iterations += 1;
             let size = delta.iter().fold(0.0f64, |a, d| a.max(d.abs()));
             let scale = w.iter().fold(f64::MIN_POSITIVE, |a, d| a.max(d.abs()));
-            // Converged to round-off, or stagnating there.
-            // Converged to round-off, or stagnating at the round-off floor of the stage
-            // system (its condition grows like (ω_max h)²: the floor sits in the unresolved
-            // stiff components of W, whose effect on the state is h²-small).
-            if size <= 1e-14 * scale || (iteration >= 2 && size >= 0.5 * previous) {
+            if size <= 1e-14 * scale {
                 break;
             }
-            if iteration + 1 == MAX_NEWTON && size > 1e-6 * scale {
+            if iterations >= 2 && size >= 0.5 * previous {
+                // Slow: with a stale matrix, refactor at the current stages; with a fresh
+                // one, this is the round-off floor of the stage system (its condition grows
+                // like (ω_max h)², in unresolved stiff components of W whose effect on the
+                // state is h²-small).
+                if fresh {
+                    break;
+                }
+                let (lu, _) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h);
+                stats.tangent_evaluations += s;
+                *cache = Some((lu, h));
+                fresh = true;
+                previous = f64::INFINITY;
+                continue;
+            }
+            if iterations >= 4 * MAX_NEWTON {
                 return Err(IntegrationError::InvalidInput(format!(
-                    "implicit stages did not converge in {MAX_NEWTON} Newton iterations (step {h:.3e})"
+                    "implicit stages did not converge in {iterations} Newton iterations (step {h:.3e})"
                 )));
             }
             previous = size;
         }
-        let lu = lu.expect("at least one iteration");
-        // Sensitivities: J dW = -[K_t(X_i) (Φ_x + h c_i Φ_v)]_i, with the last factorisation.
         if k > 0 {
+            // J dW = -[K_t(X_i) (Φ_x + h c_i Φ_v)]_i with the exact J at the converged stages.
+            let (lu, tangents) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h);
+            stats.tangent_evaluations += s;
             let n2 = 2 * n;
             let mut rhs = vec![0.0; m * k];
             for col in 0..k {
@@ -268,6 +302,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                     pv[r] += h * b;
                 }
             }
+            *cache = Some((lu, h));
         }
         let (x1, v1) = z.split_at_mut(n);
         for r in 0..n {
@@ -309,11 +344,12 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         let mut z = z0.to_vec();
         let mut middle = Vec::new();
         let h = duration / steps as f64;
+        let mut cache = None;
         for k in 0..steps {
             if 2 * k == steps {
                 middle = z.clone();
             }
-            self.step(&mut z, h, &mut [], 0, stats)?;
+            self.step(&mut z, h, &mut [], 0, &mut cache, stats)?;
             stats.steps += 1;
         }
         Ok((middle, z))
@@ -421,8 +457,9 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
         }
         let mut z = z0.to_vec();
         let mut t = 0.0;
+        let mut cache = None;
         for &h in &sizes {
-            self.step(&mut z, h, &mut phi, k, &mut stats)
+            self.step(&mut z, h, &mut phi, k, &mut cache, &mut stats)
                 .map_err(|e| match e {
                     IntegrationError::NotFinite { .. } => IntegrationError::NotFinite { t },
                     other => other,
