@@ -111,6 +111,59 @@ impl DenseLu {
     }
 }
 
+/// A square sparse matrix's structure in compressed columns (rows sorted within a column),
+/// with its symbolic LU factorisation made once: each numeric factorisation with new values on
+/// the same structure then skips the ordering and the symbolic analysis.
+pub struct SparseLuPattern {
+    n: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    symbolic: faer::sparse::linalg::solvers::SymbolicLu<usize>,
+}
+
+/// A numeric sparse LU factorisation on a [`SparseLuPattern`].
+pub struct SparseLu(faer::sparse::linalg::solvers::Lu<usize, f64>);
+
+impl SparseLuPattern {
+    /// The structure of an `n × n` matrix; `None` if the symbolic analysis fails.
+    pub fn new(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Option<Self> {
+        let structure =
+            faer::sparse::SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let symbolic = faer::sparse::linalg::solvers::SymbolicLu::try_new(structure).ok()?;
+        Some(Self {
+            n,
+            col_ptr,
+            row_idx,
+            symbolic,
+        })
+    }
+
+    /// Factorises the matrix with these values (in the pattern's order); `None` if singular.
+    pub fn factorise(&self, values: &[f64]) -> Option<SparseLu> {
+        let structure = faer::sparse::SymbolicSparseColMatRef::new_checked(
+            self.n,
+            self.n,
+            &self.col_ptr,
+            None,
+            &self.row_idx,
+        );
+        let matrix = faer::sparse::SparseColMatRef::new(structure, values);
+        faer::sparse::linalg::solvers::Lu::try_new_with_symbolic(self.symbolic.clone(), matrix)
+            .ok()
+            .map(SparseLu)
+    }
+}
+
+impl SparseLu {
+    /// Solves `A X = B` in place for `cols` contiguous column-major columns of `b`.
+    pub fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+        use faer::linalg::solvers::Solve;
+        let n = b.len() / cols.max(1);
+        let rhs = faer::MatMut::from_column_major_slice_mut(b, n, cols);
+        self.0.solve_in_place(rhs);
+    }
+}
+
 /// Eigenvalues (ascending) and orthonormal eigenvectors of a symmetric matrix.
 pub fn symmetric_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), LinalgError> {
     let evd = a

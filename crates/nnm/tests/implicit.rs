@@ -129,3 +129,41 @@ fn stiff_model_keeps_its_multipliers_on_the_unit_circle() {
         s.integration.steps as f64 / s.integrations as f64
     );
 }
+
+/// The dense stage solve (a system without a tangent pattern) and the sparse one (a
+/// `Structure`, which gives its pattern) give the same branch.
+#[test]
+fn dense_and_sparse_stage_solves_agree() {
+    struct Unassembled(Structure);
+    impl MechanicalSystem for Unassembled {
+        fn dofs(&self) -> usize {
+            self.0.dofs()
+        }
+        fn mass(&self) -> &dyn MassOperator {
+            self.0.mass()
+        }
+        fn internal_force(&self, x: &[f64], f: &mut [f64]) {
+            self.0.internal_force(x, f)
+        }
+        fn tangent_stiffness(&self, x: &[f64], dx: Block<'_>, out: BlockMut<'_>) {
+            self.0.tangent_stiffness(x, dx, out)
+        }
+        fn potential_energy(&self, x: &[f64]) -> f64 {
+            self.0.potential_energy(x)
+        }
+    }
+    let sparse = two_dof(0.5).unwrap();
+    let dense = Unassembled(two_dof(0.5).unwrap());
+    assert!(sparse.tangent_pattern().is_some() && dense.tangent_pattern().is_none());
+    let mut settings = Settings::default();
+    settings.limits.energy_max = 5.0;
+    let (a, b) = (
+        backbone(&sparse, IntegrationMethod::Gauss6, &settings),
+        backbone(&dense, IntegrationMethod::Gauss6, &settings),
+    );
+    assert_eq!(a.points.len(), b.points.len());
+    for (p, q) in a.points.iter().zip(&b.points) {
+        assert!((p.frequency - q.frequency).abs() < 1e-12 * p.frequency);
+        assert!((p.floquet.max_modulus - q.floquet.max_modulus).abs() < 1e-9);
+    }
+}

@@ -25,15 +25,17 @@
 //! tolerance, and is reused while the
 //! horizon stays within 20% of the one it was chosen for.
 //!
-//! The stage systems are dense `(s n) × (s n)` here: the right choice up to a few hundred
-//! dofs; a sparse factorisation of the same blocks is the next step for large models.
+//! **Stage solves.** When the system gives its tangent on a fixed pattern (a `Structure`
+//! does), the `(s n) × (s n)` stage Jacobian is assembled on the union of `M`'s and `K_t`'s
+//! patterns in every block and factorised by sparse LU, its symbolic analysis made once: on
+//! the 38-dof ECL beam this took a branch from 38 s (dense) to 14.5 s. Otherwise it is dense.
 
 // Coefficients are quoted with all their digits.
 #![allow(clippy::excessive_precision)]
 
 use super::{Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tolerances};
-use crate::linalg::{self, DenseLu, Mat};
-use crate::model::{Block, BlockMut, ExplicitForm, MechanicalSystem};
+use crate::linalg::{self, DenseLu, Mat, SparseLu, SparseLuPattern};
+use crate::model::{Block, BlockMut, ExplicitForm, MechanicalSystem, SparsityPattern};
 
 /// A Gauss–Legendre collocation method: nodes `c`, coefficients `A` (row-major) and weights
 /// `b` of `s` stages.
@@ -104,6 +106,108 @@ pub struct GaussLegendre<'a, S: MechanicalSystem + ?Sized> {
     /// Dense `M`, and the identity block the dense tangents are built from.
     mass: Mat<f64>,
     identity: Vec<f64>,
+    /// The sparse stage system, when the system gives its tangent on a pattern.
+    sparse: Option<SparseStages<'a>>,
+}
+
+/// The stage Jacobian `J_ij = M δ_ij + h² Ā_ij K_t(X_i)` as a sparse matrix: its structure
+/// (every block on the union of `M`'s and `K_t`'s patterns), analysed once, and for each entry
+/// where its values come from.
+struct SparseStages<'a> {
+    /// `K_t`'s pattern (compressed rows).
+    tangent: &'a SparsityPattern,
+    lu: SparseLuPattern,
+    /// Per entry of `J` in compressed-column order: its blocks `(i, j)`, its `M` value (on
+    /// diagonal blocks) and its position in `K_t`'s values, if there is one.
+    entries: Vec<(usize, usize, f64, Option<usize>)>,
+}
+
+impl<'a> SparseStages<'a> {
+    fn new(tangent: &'a SparsityPattern, mass: &Mat<f64>, stages: usize) -> Option<Self> {
+        let n = mass.nrows();
+        // The union pattern, by columns (both patterns are those of symmetric matrices, but
+        // the columns are collected explicitly all the same).
+        let mut columns: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for r in 0..n {
+            for &c in &tangent.col[tangent.row_start[r]..tangent.row_start[r + 1]] {
+                columns[c].push(r);
+            }
+            for (c, column) in columns.iter_mut().enumerate() {
+                if mass[(r, c)] != 0.0 {
+                    column.push(r);
+                }
+            }
+        }
+        for column in &mut columns {
+            column.sort_unstable();
+            column.dedup();
+        }
+        let (mut col_ptr, mut row_idx, mut entries) = (vec![0], Vec::new(), Vec::new());
+        for bj in 0..stages {
+            for (c, column) in columns.iter().enumerate() {
+                for bi in 0..stages {
+                    for &r in column {
+                        row_idx.push(bi * n + r);
+                        let m = if bi == bj { mass[(r, c)] } else { 0.0 };
+                        entries.push((bi, bj, m, tangent.position(r, c)));
+                    }
+                }
+                col_ptr.push(row_idx.len());
+            }
+        }
+        Some(Self {
+            tangent,
+            lu: SparseLuPattern::new(stages * n, col_ptr, row_idx)?,
+            entries,
+        })
+    }
+}
+
+/// A factorised stage Jacobian.
+enum StageLu {
+    Dense(DenseLu),
+    Sparse(SparseLu),
+}
+
+impl StageLu {
+    fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+        match self {
+            StageLu::Dense(lu) => lu.solve_in_place(b, cols),
+            StageLu::Sparse(lu) => lu.solve_in_place(b, cols),
+        }
+    }
+}
+
+/// The tangents `K_t(X_i)` the stage Jacobian was built from: dense `n × n` each, or values on
+/// the system's pattern.
+enum StageTangents<'p> {
+    Dense(Vec<f64>),
+    Sparse(&'p SparsityPattern, Vec<Vec<f64>>),
+}
+
+impl StageTangents<'_> {
+    /// `out = K_t(X_i) d`.
+    fn apply(&self, i: usize, d: &[f64], out: &mut [f64]) {
+        let n = d.len();
+        match self {
+            StageTangents::Dense(all) => {
+                let k = &all[i * n * n..(i + 1) * n * n];
+                for (r, o) in out.iter_mut().enumerate() {
+                    *o = (0..n).map(|c| k[c * n + r] * d[c]).sum();
+                }
+            }
+            StageTangents::Sparse(pattern, values) => {
+                for (r, o) in out.iter_mut().enumerate() {
+                    let span = pattern.row_start[r]..pattern.row_start[r + 1];
+                    *o = pattern.col[span.clone()]
+                        .iter()
+                        .zip(&values[i][span])
+                        .map(|(&c, v)| v * d[c])
+                        .sum();
+                }
+            }
+        }
+    }
 }
 
 impl<S: MechanicalSystem + ?Sized> std::fmt::Debug for GaussLegendre<'_, S> {
@@ -135,6 +239,9 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         let identity = (0..n * n)
             .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
             .collect();
+        let sparse = system
+            .tangent_pattern()
+            .and_then(|pattern| SparseStages::new(pattern, &mass, method.c.len()));
         Self {
             form: ExplicitForm::new(system),
             method,
@@ -145,6 +252,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             max_steps: 1_000_000,
             mass,
             identity,
+            sparse,
         }
     }
 
@@ -162,12 +270,43 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         states
     }
 
-    /// The exact stage Jacobian `J_ij = M δ_ij + h² Ā_ij K_t(X_i)` at the stage states, with
-    /// the dense tangents `K_t(X_i)` it was built from.
-    fn stage_jacobian(&self, states: &[f64], h: f64) -> (DenseLu, Vec<f64>) {
+    /// The exact stage Jacobian `J_ij = M δ_ij + h² Ā_ij K_t(X_i)` at the stage states,
+    /// factorised (sparse when the system gives its tangent on a pattern, dense otherwise),
+    /// with the tangents `K_t(X_i)` it was built from.
+    fn stage_jacobian(
+        &self,
+        states: &[f64],
+        h: f64,
+    ) -> Result<(StageLu, StageTangents<'_>), IntegrationError> {
         let system = self.form.system();
         let s = self.method.c.len();
         let n = states.len() / s;
+        let singular = || {
+            IntegrationError::InvalidInput(format!(
+                "the implicit stage system is singular (step {h:.3e})"
+            ))
+        };
+        if let Some(sparse) = &self.sparse {
+            let tangents: Vec<Vec<f64>> = (0..s)
+                .map(|i| {
+                    let mut values = vec![0.0; sparse.tangent.nonzeros()];
+                    system.tangent_values(&states[i * n..(i + 1) * n], &mut values);
+                    values
+                })
+                .collect();
+            let values: Vec<f64> = sparse
+                .entries
+                .iter()
+                .map(|&(bi, bj, m, slot)| {
+                    m + slot.map_or(0.0, |p| h * h * self.abar[bi][bj] * tangents[bi][p])
+                })
+                .collect();
+            let lu = sparse.lu.factorise(&values).ok_or_else(singular)?;
+            return Ok((
+                StageLu::Sparse(lu),
+                StageTangents::Sparse(sparse.tangent, tangents),
+            ));
+        }
         let m = s * n;
         let mut tangents = vec![0.0; s * n * n];
         for i in 0..s {
@@ -185,7 +324,10 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             }
             value
         });
-        (DenseLu::new(jacobian.as_ref()), tangents)
+        Ok((
+            StageLu::Dense(DenseLu::new(jacobian.as_ref())),
+            StageTangents::Dense(tangents),
+        ))
     }
 
     /// One step of size `h` from `z` (in place), with the sensitivities `phi` (`2n × k`
@@ -201,7 +343,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         h: f64,
         phi: &mut [f64],
         k: usize,
-        cache: &mut Option<(DenseLu, f64)>,
+        cache: &mut Option<(StageLu, f64)>,
         stats: &mut IntegrationStats,
     ) -> Result<(), IntegrationError> {
         let system = self.form.system();
@@ -217,7 +359,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             w.copy_within(0..n, i * n);
         }
         if cache.as_ref().is_none_or(|(_, size)| *size != h) {
-            let (lu, _) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h);
+            let (lu, _) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h)?;
             stats.tangent_evaluations += s;
             *cache = Some((lu, h));
         }
@@ -258,7 +400,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                 if fresh {
                     break;
                 }
-                let (lu, _) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h);
+                let (lu, _) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h)?;
                 stats.tangent_evaluations += s;
                 *cache = Some((lu, h));
                 fresh = true;
@@ -274,7 +416,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         }
         if k > 0 {
             // J dW = -[K_t(X_i) (Φ_x + h c_i Φ_v)]_i with the exact J at the converged stages.
-            let (lu, tangents) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h);
+            let (lu, tangents) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h)?;
             stats.tangent_evaluations += s;
             let n2 = 2 * n;
             let mut rhs = vec![0.0; m * k];
@@ -284,11 +426,9 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                     let d: Vec<f64> = (0..n)
                         .map(|r| px[r] + h * self.method.c[i] * pv[r])
                         .collect();
-                    let ki = &tangents[i * n * n..(i + 1) * n * n];
-                    for r in 0..n {
-                        rhs[col * m + i * n + r] =
-                            -(0..n).map(|c| ki[c * n + r] * d[c]).sum::<f64>();
-                    }
+                    let out = &mut rhs[col * m + i * n..col * m + (i + 1) * n];
+                    tangents.apply(i, &d, out);
+                    out.iter_mut().for_each(|o| *o = -*o);
                 }
             }
             lu.solve_in_place(&mut rhs, k);
