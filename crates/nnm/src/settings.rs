@@ -163,7 +163,7 @@ impl Default for ShootingSettings {
 impl Default for IntegrationSettings {
     fn default() -> Self {
         Self {
-            integrator: IntegrationMethod::Dop853,
+            integrator: IntegrationMethod::Auto,
             integration_factor: 1e-3,
         }
     }

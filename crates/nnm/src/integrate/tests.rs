@@ -355,3 +355,29 @@ fn gauss_monodromy_is_symplectic_on_a_stiff_model() {
         }
     }
 }
+
+/// `Auto` picks the implicit method for the stiff beam (highest frequency ~4000× the first)
+/// and the explicit one for the bladed disk (≤ 14×) and Duffing.
+#[test]
+fn auto_resolves_by_stiffness() {
+    let beam = crate::model::CantileverBeam::default().build().unwrap();
+    let disk = crate::model::BladedDisk::default().build().unwrap();
+    let duffing = duffing(1.0, 1.0).unwrap();
+    let beam_omega = 2.0 * std::f64::consts::PI * 23.6615;
+    assert_eq!(
+        IntegrationMethod::Auto.resolve(&beam, beam_omega),
+        IntegrationMethod::Gauss6
+    );
+    assert_eq!(
+        IntegrationMethod::Auto.resolve(&disk, 0.18),
+        IntegrationMethod::Dop853
+    );
+    assert_eq!(
+        IntegrationMethod::Auto.resolve(&duffing, 1.0),
+        IntegrationMethod::Dop853
+    );
+    assert_eq!(
+        IntegrationMethod::Dopri5.resolve(&beam, beam_omega),
+        IntegrationMethod::Dopri5
+    );
+}

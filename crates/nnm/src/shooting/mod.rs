@@ -240,19 +240,15 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             }
         }
         let tolerance = settings.continuation.tolerance;
-        let relative = settings
-            .integration
-            .integrator
-            .relative_tolerance(tolerance, settings.integration.integration_factor);
+        let method = settings.integration.integrator.resolve(system, omega_ref);
+        let relative =
+            method.relative_tolerance(tolerance, settings.integration.integration_factor);
         let tolerances = Tolerances {
             relative,
             absolute: relative,
             velocity_scale: omega_ref,
         };
-        let integrator = settings
-            .integration
-            .integrator
-            .integrator(system, tolerances);
+        let integrator = method.integrator(system, tolerances);
         Self {
             system,
             n,
