@@ -560,20 +560,7 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
         steps: Steps<'_>,
     ) -> Result<Flow, IntegrationError> {
         let n2 = 2 * self.form.dofs();
-        if z0.len() != n2 {
-            return Err(IntegrationError::InvalidInput(format!(
-                "state has length {}, expected {n2}",
-                z0.len()
-            )));
-        }
-        if !(duration.is_finite() && duration > 0.0) {
-            return Err(IntegrationError::InvalidInput(format!(
-                "duration must be positive, got {duration}"
-            )));
-        }
-        if z0.iter().any(|v| !v.is_finite()) {
-            return Err(IntegrationError::NotFinite { t: 0.0 });
-        }
+        super::check_request(z0, n2, duration, sensitivity)?;
         let mut stats = IntegrationStats::default();
         let sizes: Vec<f64> = match steps {
             Steps::Replay(list) => list.to_vec(),
@@ -585,12 +572,6 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
         let k = sensitivity.map_or(0, |b| b.cols);
         let mut phi = vec![0.0; n2 * k];
         if let Some(b) = sensitivity {
-            if b.rows != n2 {
-                return Err(IntegrationError::InvalidInput(format!(
-                    "sensitivity block has {} rows, expected {n2}",
-                    b.rows
-                )));
-            }
             for c in 0..k {
                 phi[c * n2..(c + 1) * n2].copy_from_slice(b.col(c));
             }

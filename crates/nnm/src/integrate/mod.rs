@@ -244,5 +244,40 @@ pub enum IntegrationError {
     InvalidInput(String),
 }
 
+/// The checks every integrator makes of a request before it integrates: a state of `n2`
+/// finite entries, a positive finite duration, a sensitivity block of `n2` rows.
+// Negated comparison deliberate: a NaN duration must fail.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub(crate) fn check_request(
+    z0: &[f64],
+    n2: usize,
+    duration: f64,
+    sensitivity: Option<Block<'_>>,
+) -> Result<(), IntegrationError> {
+    if z0.len() != n2 {
+        return Err(IntegrationError::InvalidInput(format!(
+            "state has length {}, expected {n2}",
+            z0.len()
+        )));
+    }
+    if !(duration.is_finite() && duration > 0.0) {
+        return Err(IntegrationError::InvalidInput(format!(
+            "duration must be positive, got {duration}"
+        )));
+    }
+    if let Some(b) = sensitivity
+        && b.rows != n2
+    {
+        return Err(IntegrationError::InvalidInput(format!(
+            "sensitivity block has {} rows, expected {n2}",
+            b.rows
+        )));
+    }
+    if z0.iter().any(|v| !v.is_finite()) {
+        return Err(IntegrationError::NotFinite { t: 0.0 });
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests;

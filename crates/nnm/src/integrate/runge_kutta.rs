@@ -98,20 +98,7 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
         steps: Steps<'_>,
     ) -> Result<Flow, IntegrationError> {
         let n2 = 2 * self.form.dofs();
-        if z0.len() != n2 {
-            return Err(IntegrationError::InvalidInput(format!(
-                "state has length {}, expected {n2}",
-                z0.len()
-            )));
-        }
-        if !(duration.is_finite() && duration > 0.0) {
-            return Err(IntegrationError::InvalidInput(format!(
-                "duration must be positive, got {duration}"
-            )));
-        }
-        if z0.iter().any(|v| !v.is_finite()) {
-            return Err(IntegrationError::NotFinite { t: 0.0 });
-        }
+        super::check_request(z0, n2, duration, sensitivity)?;
         let stages = self.tableau.c.len();
         let columns = sensitivity.map_or(0, |b| b.cols);
         // Row stride of the interleaved Φ: padded with zero directions (which stay zero) to a
@@ -124,12 +111,6 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
         };
         let mut phi = vec![0.0; n2 * stride];
         if let Some(b) = sensitivity {
-            if b.rows != n2 {
-                return Err(IntegrationError::InvalidInput(format!(
-                    "sensitivity block has {} rows, expected {n2}",
-                    b.rows
-                )));
-            }
             // Interleaved (state index-major) during the integration (module notes).
             for c in 0..columns {
                 for (i, &v) in b.col(c).iter().enumerate() {
