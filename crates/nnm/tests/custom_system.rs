@@ -11,6 +11,9 @@ use std::ops::ControlFlow;
 use nnm::Mat;
 use nnm::prelude::*;
 
+mod common;
+use common::Unassembled;
+
 const N: usize = 6;
 const K: f64 = 1.0;
 const CUBIC: f64 = 0.4;
@@ -166,25 +169,6 @@ fn custom_sparse_system_matches_the_same_model_as_a_structure() {
 /// branch (the pattern is an optimisation only).
 #[test]
 fn tangent_pattern_is_only_an_optimisation() {
-    /// The chain without its pattern: tangents through `tangent_stiffness` only.
-    struct Unassembled(SparseChain);
-    impl MechanicalSystem for Unassembled {
-        fn dofs(&self) -> usize {
-            N
-        }
-        fn mass(&self) -> &dyn MassOperator {
-            self.0.mass()
-        }
-        fn internal_force(&self, x: &[f64], f: &mut [f64]) {
-            self.0.internal_force(x, f)
-        }
-        fn tangent_stiffness(&self, x: &[f64], dx: Block<'_>, out: BlockMut<'_>) {
-            self.0.tangent_stiffness(x, dx, out)
-        }
-        fn potential_energy(&self, x: &[f64]) -> f64 {
-            self.0.potential_energy(x)
-        }
-    }
     let (p, q) = (
         backbone(&SparseChain::new(), 1),
         backbone(&Unassembled(SparseChain::new()), 1),

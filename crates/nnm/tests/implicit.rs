@@ -7,6 +7,9 @@ use nnm::integrate::IntegrationMethod;
 use nnm::model::{duffing, two_dof};
 use nnm::prelude::*;
 
+mod common;
+use common::Unassembled;
+
 #[path = "../src/reference.rs"]
 #[allow(dead_code)]
 mod reference;
@@ -134,24 +137,6 @@ fn stiff_model_keeps_its_multipliers_on_the_unit_circle() {
 /// `Structure`, which gives its pattern) give the same branch.
 #[test]
 fn dense_and_sparse_stage_solves_agree() {
-    struct Unassembled(Structure);
-    impl MechanicalSystem for Unassembled {
-        fn dofs(&self) -> usize {
-            self.0.dofs()
-        }
-        fn mass(&self) -> &dyn MassOperator {
-            self.0.mass()
-        }
-        fn internal_force(&self, x: &[f64], f: &mut [f64]) {
-            self.0.internal_force(x, f)
-        }
-        fn tangent_stiffness(&self, x: &[f64], dx: Block<'_>, out: BlockMut<'_>) {
-            self.0.tangent_stiffness(x, dx, out)
-        }
-        fn potential_energy(&self, x: &[f64]) -> f64 {
-            self.0.potential_energy(x)
-        }
-    }
     let sparse = two_dof(0.5).unwrap();
     let dense = Unassembled(two_dof(0.5).unwrap());
     assert!(sparse.tangent_pattern().is_some() && dense.tangent_pattern().is_none());

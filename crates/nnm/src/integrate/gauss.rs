@@ -236,12 +236,17 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             .collect();
         let mass = crate::modes::dense_mass(system);
         let n = system.dofs();
-        let identity = (0..n * n)
-            .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
-            .collect();
         let sparse = system
             .tangent_pattern()
             .and_then(|pattern| SparseStages::new(pattern, &mass, method.c.len()));
+        // The identity block the dense tangents are built from: the dense path only.
+        let identity = if sparse.is_some() {
+            Vec::new()
+        } else {
+            (0..n * n)
+                .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
+                .collect()
+        };
         Self {
             form: ExplicitForm::new(system),
             method,
@@ -366,14 +371,18 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         let mut fresh = false;
         let mut previous = f64::INFINITY;
         let mut residual = vec![0.0; m];
+        let mut mw = vec![0.0; m];
         let mut iterations = 0;
         loop {
             let states = self.stage_states(x, v, &w, h);
+            // M W_i for every stage in one product of the mass operator.
+            system.mass().apply(&w, s, &mut mw);
             for i in 0..s {
                 let ri = &mut residual[i * n..(i + 1) * n];
                 system.internal_force(&states[i * n..(i + 1) * n], ri);
-                let mw = linalg::times(self.mass.as_ref(), &w[i * n..(i + 1) * n]);
-                ri.iter_mut().zip(&mw).for_each(|(r, a)| *r += a);
+                ri.iter_mut()
+                    .zip(&mw[i * n..(i + 1) * n])
+                    .for_each(|(r, a)| *r += a);
             }
             stats.rhs_evaluations += s;
             let mut delta: Vec<f64> = residual.iter().map(|r| -r).collect();
