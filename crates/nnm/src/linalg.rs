@@ -114,27 +114,49 @@ impl DenseLu {
 /// A square sparse matrix's structure in compressed columns (rows sorted within a column),
 /// with its symbolic LU factorisation made once: each numeric factorisation with new values on
 /// the same structure then skips the ordering and the symbolic analysis.
+///
+/// faer's lower-level interface is used so the supernodal factorisation can be chosen: the
+/// implicit integrator's stage systems are made of `s × s` dense blocks per entry of `K_t`,
+/// which group into supernodes (see [`SparseLuPattern::new`] for the figures).
 pub struct SparseLuPattern {
     n: usize,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
-    symbolic: faer::sparse::linalg::solvers::SymbolicLu<usize>,
+    symbolic: std::sync::Arc<faer::sparse::linalg::lu::SymbolicLu<usize>>,
 }
 
 /// A numeric sparse LU factorisation on a [`SparseLuPattern`].
-pub struct SparseLu(faer::sparse::linalg::solvers::Lu<usize, f64>);
+pub struct SparseLu {
+    symbolic: std::sync::Arc<faer::sparse::linalg::lu::SymbolicLu<usize>>,
+    numeric: faer::sparse::linalg::lu::NumericLu<usize, f64>,
+}
+
+/// A work buffer of `req` bytes for faer's stack-based routines.
+fn scratch(req: faer::dyn_stack::StackReq) -> faer::dyn_stack::MemBuffer {
+    faer::dyn_stack::MemBuffer::new(req)
+}
 
 impl SparseLuPattern {
     /// The structure of an `n × n` matrix; `None` if the symbolic analysis fails.
     pub fn new(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Option<Self> {
+        use faer::sparse::linalg::{SupernodalThreshold, lu};
         let structure =
             faer::sparse::SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic = faer::sparse::linalg::solvers::SymbolicLu::try_new(structure).ok()?;
+        let threshold = if std::env::var("NNM_SIMPLICIAL").is_ok() {
+            SupernodalThreshold::FORCE_SIMPLICIAL
+        } else {
+            SupernodalThreshold::FORCE_SUPERNODAL
+        };
+        let params = lu::LuSymbolicParams {
+            supernodal_flop_ratio_threshold: threshold,
+            ..Default::default()
+        };
+        let symbolic = lu::factorize_symbolic_lu(structure, params).ok()?;
         Some(Self {
             n,
             col_ptr,
             row_idx,
-            symbolic,
+            symbolic: std::sync::Arc::new(symbolic),
         })
     }
 
@@ -148,19 +170,46 @@ impl SparseLuPattern {
             &self.row_idx,
         );
         let matrix = faer::sparse::SparseColMatRef::new(structure, values);
-        faer::sparse::linalg::solvers::Lu::try_new_with_symbolic(self.symbolic.clone(), matrix)
-            .ok()
-            .map(SparseLu)
+        let mut numeric = faer::sparse::linalg::lu::NumericLu::new();
+        let params = Default::default();
+        let mut buffer = scratch(
+            self.symbolic
+                .factorize_numeric_lu_scratch::<f64>(faer::Par::Seq, params),
+        );
+        self.symbolic
+            .factorize_numeric_lu(
+                &mut numeric,
+                matrix,
+                faer::Par::Seq,
+                faer::dyn_stack::MemStack::new(&mut buffer),
+                params,
+            )
+            .ok()?;
+        Some(SparseLu {
+            symbolic: self.symbolic.clone(),
+            numeric,
+        })
     }
 }
 
 impl SparseLu {
     /// Solves `A X = B` in place for `cols` contiguous column-major columns of `b`.
     pub fn solve_in_place(&self, b: &mut [f64], cols: usize) {
-        use faer::linalg::solvers::Solve;
         let n = b.len() / cols.max(1);
         let rhs = faer::MatMut::from_column_major_slice_mut(b, n, cols);
-        self.0.solve_in_place(rhs);
+        let mut buffer = scratch(
+            self.symbolic
+                .solve_in_place_scratch::<f64>(cols, faer::Par::Seq),
+        );
+        // `numeric` is the output of `factorize_numeric_lu` on this `symbolic` (the pairing
+        // `new_unchecked` requires).
+        let lu = faer::sparse::linalg::lu::LuRef::new_unchecked(&self.symbolic, &self.numeric);
+        lu.solve_in_place_with_conj(
+            faer::Conj::No,
+            rhs,
+            faer::Par::Seq,
+            faer::dyn_stack::MemStack::new(&mut buffer),
+        );
     }
 }
 
