@@ -213,6 +213,42 @@ impl SparseLu {
     }
 }
 
+/// A sparse Cholesky factorisation `A = L Lᵀ` of a symmetric positive definite matrix (the
+/// mass of a finite-element model): O(nnz(L)) memory, no dense copy.
+pub struct SparseCholesky(faer::sparse::linalg::solvers::Llt<usize, f64>);
+
+impl std::fmt::Debug for SparseCholesky {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SparseCholesky")
+    }
+}
+
+impl SparseCholesky {
+    /// Factorises the `n × n` symmetric matrix given in compressed rows (both triangles or
+    /// either; the lower one — the upper one of the rows — is read); `None` if it is not
+    /// positive definite.
+    pub fn new(n: usize, row_start: &[usize], col: &[usize], values: &[f64]) -> Option<Self> {
+        use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+        // Compressed rows of a symmetric matrix are its compressed columns: read as columns,
+        // the entries with row index >= column form the lower triangle.
+        let structure =
+            faer::sparse::SymbolicSparseColMatRef::new_checked(n, n, row_start, None, col);
+        let symbolic = SymbolicLlt::try_new(structure, Side::Lower).ok()?;
+        let matrix = faer::sparse::SparseColMatRef::new(structure, values);
+        Llt::try_new_with_symbolic(symbolic, matrix, Side::Lower)
+            .ok()
+            .map(Self)
+    }
+
+    /// Solves `A X = B` in place for `cols` contiguous column-major columns of `b`.
+    pub fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+        use faer::linalg::solvers::Solve;
+        let n = b.len() / cols.max(1);
+        let rhs = faer::MatMut::from_column_major_slice_mut(b, n, cols);
+        self.0.solve_in_place(rhs);
+    }
+}
+
 /// Eigenvalues (ascending) and orthonormal eigenvectors of a symmetric matrix.
 pub fn symmetric_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), LinalgError> {
     let evd = a

@@ -35,7 +35,9 @@
 
 use super::{Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tolerances};
 use crate::linalg::{self, DenseLu, Mat, SparseLu, SparseLuPattern};
-use crate::model::{Block, BlockMut, ExplicitForm, MechanicalSystem, SparsityPattern};
+use crate::model::{
+    Block, BlockMut, ExplicitForm, MechanicalSystem, SparseMatrix, SparsityPattern,
+};
 
 /// A Gauss–Legendre collocation method: nodes `c`, coefficients `A` (row-major) and weights
 /// `b` of `s` stages.
@@ -112,8 +114,9 @@ pub struct GaussLegendre<'a, S: MechanicalSystem + ?Sized> {
     chosen: Option<(f64, f64, usize)>,
     /// Most steps an integration may take.
     pub max_steps: usize,
-    /// Dense `M`, and the identity block the dense tangents are built from.
-    mass: Mat<f64>,
+    /// `M`'s entries (sparse: no dense `n × n` copy), and the identity block the dense
+    /// tangents are built from (dense path only).
+    mass: SparseMatrix,
     identity: Vec<f64>,
     /// The sparse stage system, when the system gives its tangent on a pattern.
     sparse: Option<SparseStages<'a>>,
@@ -132,18 +135,16 @@ struct SparseStages<'a> {
 }
 
 impl<'a> SparseStages<'a> {
-    fn new(tangent: &'a SparsityPattern, mass: &Mat<f64>, stages: usize) -> Option<Self> {
-        let n = mass.nrows();
+    fn new(tangent: &'a SparsityPattern, mass: &SparseMatrix, stages: usize) -> Option<Self> {
+        let n = mass.dimension();
+        let m_pattern = mass.pattern();
         // The union pattern, by columns (both patterns are those of symmetric matrices, but
         // the columns are collected explicitly all the same).
         let mut columns: Vec<Vec<usize>> = vec![Vec::new(); n];
         for r in 0..n {
-            for &c in &tangent.col[tangent.row_start[r]..tangent.row_start[r + 1]] {
-                columns[c].push(r);
-            }
-            for (c, column) in columns.iter_mut().enumerate() {
-                if mass[(r, c)] != 0.0 {
-                    column.push(r);
+            for pattern in [tangent, m_pattern] {
+                for &c in &pattern.col[pattern.row_start[r]..pattern.row_start[r + 1]] {
+                    columns[c].push(r);
                 }
             }
         }
@@ -157,7 +158,10 @@ impl<'a> SparseStages<'a> {
                 for bi in 0..stages {
                     for &r in column {
                         row_idx.push(bi * n + r);
-                        let m = if bi == bj { mass[(r, c)] } else { 0.0 };
+                        let m = match m_pattern.position(r, c) {
+                            Some(p) if bi == bj => mass.values()[p],
+                            _ => 0.0,
+                        };
                         entries.push((bi, bj, m, tangent.position(r, c)));
                     }
                 }
@@ -254,8 +258,22 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         let bbar = (0..s)
             .map(|j| (0..s).map(|l| method.b[l] * a(l, j)).sum())
             .collect();
-        let mass = crate::modes::dense_mass(system);
         let n = system.dofs();
+        // M's entries: held sparse by the mass operator, or its diagonal, or (a mass given
+        // only as an operator) its n products with the identity.
+        let operator = system.mass();
+        let mass = if let Some(sparse) = operator.sparse() {
+            sparse.clone()
+        } else if let Some(diagonal) = operator.diagonal() {
+            let entries: Vec<_> = diagonal
+                .iter()
+                .enumerate()
+                .map(|(i, &m)| (i, i, m))
+                .collect();
+            SparseMatrix::from_triplets(n, &entries).expect("diagonal entries are in range")
+        } else {
+            SparseMatrix::from_dense(&crate::modes::dense_mass(system))
+        };
         let sparse = system
             .tangent_pattern()
             .and_then(|pattern| SparseStages::new(pattern, &mass, method.c.len()));
@@ -335,14 +353,13 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                 BlockMut::new(&mut tangents[i * n * n..(i + 1) * n * n], n, n, n),
             );
         }
-        let jacobian = Mat::<f64>::from_fn(m, m, |row, col| {
+        let mut jacobian = Mat::<f64>::from_fn(m, m, |row, col| {
             let (bi, r, bj, c) = (row / n, row % n, col / n, col % n);
-            let mut value = h * h * self.abar[bi][bj] * tangents[bi * n * n + c * n + r];
-            if bi == bj {
-                value += self.mass[(r, c)];
-            }
-            value
+            h * h * self.abar[bi][bj] * tangents[bi * n * n + c * n + r]
         });
+        for i in 0..s {
+            self.add_mass(&mut jacobian, i * n);
+        }
         Ok((
             StageLu::Dense(DenseLu::new(jacobian.as_ref())),
             StageTangents::Dense(tangents),
@@ -509,9 +526,19 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             Block::new(&self.identity, n, n, n),
             BlockMut::new(&mut tangent, n, n, n),
         );
-        let shifted =
-            Mat::<f64>::from_fn(n, n, |r, c| self.mass[(r, c)] + alpha * tangent[c * n + r]);
+        let mut shifted = Mat::<f64>::from_fn(n, n, |r, c| alpha * tangent[c * n + r]);
+        self.add_mass(&mut shifted, 0);
         Ok(StageLu::Dense(DenseLu::new(shifted.as_ref())))
+    }
+
+    /// Adds `M` to the diagonal block of a dense matrix that starts at `(offset, offset)`.
+    fn add_mass(&self, a: &mut Mat<f64>, offset: usize) {
+        let pattern = self.mass.pattern();
+        for r in 0..self.mass.dimension() {
+            for p in pattern.row_start[r]..pattern.row_start[r + 1] {
+                a[(offset + r, offset + pattern.col[p])] += self.mass.values()[p];
+            }
+        }
     }
 
     /// `√(yᵀ M y)` with `(M + K₀/ω_c²) y = M x`, `x` the displacements of `z`: the mass norm
@@ -531,9 +558,12 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
     /// for thousands of steps a period.)
     fn filtered_norm(&self, z: &[f64], filter: &StageLu) -> f64 {
         let x = &z[..z.len() / 2];
-        let mut y = linalg::times(self.mass.as_ref(), x);
+        let mass = self.form.system().mass();
+        let mut y = vec![0.0; x.len()];
+        mass.apply(x, 1, &mut y);
         filter.solve_in_place(&mut y, 1);
-        let my = linalg::times(self.mass.as_ref(), &y);
+        let mut my = vec![0.0; x.len()];
+        mass.apply(&y, 1, &mut my);
         linalg::dot(&y, &my).max(0.0).sqrt()
     }
 
