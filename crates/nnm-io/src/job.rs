@@ -19,6 +19,11 @@
 //! energy_max = 10.0
 //! ```
 //!
+//! A general model (no `family`) takes `mass` and `stiffness` (rows, or Matrix Market files),
+//! `fixed_dofs` (0-based, like springs' `dofs`; removed from the model, docs/method.md
+//! eq. (61)) and `[[model.nonlinear]]` elements: `cubic`/`polynomial` springs and `tensor`
+//! terms from files (1-based, like Matrix Market; eq. (57)).
+//!
 //! Unknown keys are errors (a typo must not silently fall back to a default), and every error
 //! is one line naming the file and, where it can, the line and column.
 

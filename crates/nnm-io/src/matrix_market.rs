@@ -439,6 +439,7 @@ fn three_tokens(s: &str) -> Option<[&str; 3]> {
     t.next().is_none().then_some(tokens)
 }
 
+/// A 1-based index token (shared with the tensor term files, which index like this format).
 pub(crate) fn parse_index(token: &str, line: usize) -> Result<usize, MatrixMarketError> {
     token.parse().map_err(|_| MatrixMarketError::BadNumber {
         line,
@@ -447,6 +448,8 @@ pub(crate) fn parse_index(token: &str, line: usize) -> Result<usize, MatrixMarke
     })
 }
 
+/// A value token: integer fields exact, real ones also with a Fortran `D` exponent; never NaN
+/// or infinite (shared with the tensor term files, which finite-element codes write alike).
 pub(crate) fn parse_value(
     token: &str,
     integer: bool,

@@ -165,8 +165,7 @@ fn bad_jobs_get_one_line_errors() {
 
 #[test]
 fn matrix_market_files_resolve_relative_to_the_job() {
-    let dir = std::env::temp_dir().join(format!("nnm-job-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("relative");
     std::fs::write(
         dir.join("K.mtx"),
         "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 2.0\n2 1 -1.0\n2 2 2.0\n",
@@ -561,4 +560,33 @@ fn sparse_model_errors_name_the_file() {
         "{e}"
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The example `examples/tensor-model/` is the clamped chain it describes: its expanded
+/// quartic link potentials and quadratic term are the springs they stand for.
+#[test]
+fn tensor_model_example_is_the_clamped_chain() {
+    let job = load_job(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/tensor-model/tensor-model.toml"
+    )))
+    .unwrap();
+    let hand = Structure::new(
+        Matrix::identity(2),
+        Matrix::from_fn(2, 2, |i, j| [[2.0, -1.0], [-1.0, 1.0]][i][j]),
+        vec![
+            Box::new(PolynomialSpring::cubic(0, None, 0.5)),
+            Box::new(PolynomialSpring::cubic(0, Some(1), 0.5)),
+            Box::new(PolynomialSpring::new(1, None, 0.1, 2)),
+        ],
+    )
+    .unwrap();
+    assert_eq!(job.branches.len(), 1);
+    for x in [[0.4, -1.2], [1.5, 0.7]] {
+        let (a, b) = (
+            internal_force(&job.structure, &x),
+            internal_force(&hand, &x),
+        );
+        assert!(vector_difference(&a, &b) < 1e-14, "{a:?} vs {b:?}");
+    }
 }

@@ -68,15 +68,7 @@ impl FixedDofs {
     /// The matrix without the fixed rows and columns, in its own storage (a sparse matrix
     /// stays sparse, `O(nnz)`). It must be `n × n`, `n` the full model's size.
     pub fn reduce_matrix(&self, name: &'static str, m: &Matrix) -> Result<Matrix, ModelError> {
-        let n = self.full_dofs();
-        if m.nrows() != n || m.ncols() != n {
-            return Err(ModelError::WrongSize {
-                name,
-                rows: m.nrows(),
-                cols: m.ncols(),
-                expected: n,
-            });
-        }
+        super::structure::check_size(name, m, self.full_dofs())?;
         Ok(m.principal_submatrix(&self.free, &self.reduced))
     }
 }

@@ -7,7 +7,9 @@
 //!   sparse pattern) and the potential energy. Shooting, continuation and stability work on
 //!   this trait alone; `examples/pendulum.rs` implements it in a few lines.
 //! - [`NonlinearElement`]: one nonlinear restoring-force law, to put into a [`Structure`]
-//!   with your own `M` and `K`.
+//!   with your own `M` and `K`: [`PolynomialSpring`] between two dofs, [`PolynomialTensor`]
+//!   for quadratic and cubic forces over a whole finite-element model (docs/method.md
+//!   eqs. (57)–(60)). [`FixedDofs`] removes clamped dofs from both (eq. (61)).
 //!
 //! The explicit form `x'' = a(x) = -M⁻¹ f_int(x)` (eq. (3)) is what explicit integrators
 //! need; it is derived from the trait by [`ExplicitForm`], not implemented by users.

@@ -214,14 +214,7 @@ impl Structure {
             return Err(ModelError::Empty);
         }
         for (name, m) in [("mass", &mass), ("stiffness", &stiffness)] {
-            if m.nrows() != n || m.ncols() != n {
-                return Err(ModelError::WrongSize {
-                    name,
-                    rows: m.nrows(),
-                    cols: m.ncols(),
-                    expected: n,
-                });
-            }
+            check_size(name, m, n)?;
             check_finite_symmetric(name, m)?;
         }
         for (index, e) in elements.iter().enumerate() {
@@ -287,6 +280,19 @@ impl Structure {
             e.add_force(x, f);
         }
     }
+}
+
+/// `m` must be `n × n`.
+pub(super) fn check_size(name: &'static str, m: &Matrix, n: usize) -> Result<(), ModelError> {
+    if m.nrows() != n || m.ncols() != n {
+        return Err(ModelError::WrongSize {
+            name,
+            rows: m.nrows(),
+            cols: m.ncols(),
+            expected: n,
+        });
+    }
+    Ok(())
 }
 
 fn check_finite_symmetric(name: &'static str, m: &Matrix) -> Result<(), ModelError> {
