@@ -122,7 +122,9 @@ fn bad_input_gives_one_line_errors() {
         "`start` must be { branch = \"NAME\", event = K }",
     );
     {
-        // A Matrix Market header announcing a matrix too large to store densely.
+        // A Matrix Market header announcing 300000 dofs with one entry: coordinate files are
+        // stored sparse (no size cap), and a mass with fewer entries than rows is refused
+        // before anything of its size is allocated.
         let dir = scratch("big");
         write(
             &dir,
@@ -138,7 +140,41 @@ fn bad_input_gives_one_line_errors() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert_eq!(output.status.code(), Some(1), "{stderr}");
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
-        assert!(stderr.contains("too large for dense storage"), "{stderr}");
+        assert!(stderr.contains("cannot be positive definite"), "{stderr}");
+    }
+    {
+        // A tensor element whose force is not a gradient, and one with a malformed line: a
+        // one-line error naming the file (and the line), exit code 1.
+        let dir = scratch("tensor");
+        write(&dir, "f2.txt", "% f_1 += x_2^2 alone\n1 2 2 1.0\n");
+        write(&dir, "f3.txt", "\n1 1 1 1\n");
+        for (file, key, expected) in [
+            (
+                "f2.txt",
+                "quadratic",
+                "quadratic terms are not the gradient of a potential",
+            ),
+            (
+                "f3.txt",
+                "cubic",
+                "line 2: expected `i j k l c` (5 numbers), found 4",
+            ),
+        ] {
+            let job = write(
+                &dir,
+                "job.toml",
+                &format!(
+                    "{TWO_DOF}fixed_dofs = []\n[[model.nonlinear]]\ntype = \"tensor\"\n{key} = {{ file = \"{file}\" }}\n{BRANCH}"
+                ),
+            );
+            let output = nnm(&["run", &job, "--out", dir.join("out").to_str().unwrap()]);
+            let stderr = String::from_utf8_lossy(&output.stderr);
+            assert_eq!(output.status.code(), Some(1), "{stderr}");
+            assert_eq!(stderr.lines().count(), 1, "{stderr}");
+            assert!(stderr.starts_with("error: "), "{stderr}");
+            assert!(stderr.contains(&format!("{file}: {expected}")), "{stderr}");
+            assert!(!stderr.contains("panicked"));
+        }
     }
     // A missing job file.
     let output = nnm(&["run", "/nonexistent/job.toml", "--out", "/tmp/x"]);

@@ -19,6 +19,11 @@
 //! energy_max = 10.0
 //! ```
 //!
+//! A general model (no `family`) takes `mass` and `stiffness` (rows, or Matrix Market files),
+//! `fixed_dofs` (0-based, like springs' `dofs`; removed from the model, docs/method.md
+//! eq. (61)) and `[[model.nonlinear]]` elements: `cubic`/`polynomial` springs and `tensor`
+//! terms from files (1-based, like Matrix Market; eq. (57)).
+//!
 //! Unknown keys are errors (a typo must not silently fall back to a default), and every error
 //! is one line naming the file and, where it can, the line and column.
 
@@ -26,13 +31,14 @@ use std::path::{Path, PathBuf};
 
 use nnm::Settings;
 use nnm::model::{
-    BladedDisk, CantileverBeam, CyclicSymmetry, Matrix, ModelError, NonlinearElement,
-    PolynomialSpring, Structure, duffing, two_dof,
+    BladedDisk, CantileverBeam, CyclicSymmetry, FixedDofs, Matrix, ModelError, NonlinearElement,
+    PolynomialSpring, PolynomialTensor, Structure, TensorError, duffing, two_dof,
 };
 use nnm::modes::StandingWave;
 use serde::Deserialize;
 
-use crate::matrix_market::{MatrixMarketError, read_matrix_market};
+use crate::matrix_market::{MarketMatrix, MatrixMarketError, read_matrix_market};
+use crate::tensor_file::read_terms;
 
 /// Why a job file was rejected.
 #[derive(Debug, thiserror::Error)]
@@ -123,6 +129,8 @@ struct ModelSpec {
     #[serde(default)]
     nonlinear: Vec<ElementSpec>,
     cyclic: Option<CyclicSpec>,
+    /// Dofs held at zero (0-based, like an element's `dofs`), removed from the model.
+    fixed_dofs: Option<Vec<usize>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -137,9 +145,20 @@ enum MatrixSpec {
 struct ElementSpec {
     #[serde(rename = "type")]
     kind: String,
-    dofs: Vec<usize>,
-    coefficient: f64,
+    /// Springs (`cubic`, `polynomial`): the dofs, 0-based.
+    dofs: Option<Vec<usize>>,
+    coefficient: Option<f64>,
     exponent: Option<u32>,
+    /// `tensor`: the file of quadratic terms `i j k c`, 1-based.
+    quadratic: Option<FileSpec>,
+    /// `tensor`: the file of cubic terms `i j k l c`, 1-based.
+    cubic: Option<FileSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileSpec {
+    file: String,
 }
 
 #[derive(Debug, Deserialize)]
@@ -337,6 +356,7 @@ fn build_model(
         ("stiffness", spec.stiffness.is_some()),
         ("nonlinear", !spec.nonlinear.is_empty()),
         ("cyclic", spec.cyclic.is_some()),
+        ("fixed_dofs", spec.fixed_dofs.is_some()),
     ];
     let allowed: &[&str] = match family.as_str() {
         "bladed-disk" => &[
@@ -358,7 +378,7 @@ fn build_model(
             "density",
             "cubic",
         ],
-        "general" => &["mass", "stiffness", "nonlinear", "cyclic"],
+        "general" => &["mass", "stiffness", "nonlinear", "cyclic", "fixed_dofs"],
         other => {
             return Err(invalid(format!(
                 "unknown model family `{other}` (expected \"bladed-disk\", \"duffing\", \"two-dof\", \"cantilever-beam\", or no family with mass and stiffness)"
@@ -413,17 +433,43 @@ fn build_model(
                 .stiffness
                 .as_ref()
                 .ok_or_else(|| invalid("[model] needs `stiffness`".into()))?;
-            let mass = load_matrix(mass, "mass", base, path)?;
-            let stiffness = load_matrix(stiffness, "stiffness", base, path)?;
-            let elements = spec
-                .nonlinear
-                .iter()
-                .enumerate()
-                .map(|(k, e)| {
-                    build_element(e)
-                        .map_err(|m| invalid(format!("nonlinear element {}: {m}", k + 1)))
-                })
-                .collect::<Result<Vec<_>, _>>()?;
+            let mass = load_matrix(mass, "mass", None, base, path)?;
+            let n = mass.nrows();
+            let stiffness = load_matrix(stiffness, "stiffness", Some(n), base, path)?;
+            let mut elements = Vec::with_capacity(spec.nonlinear.len());
+            for (k, e) in spec.nonlinear.iter().enumerate() {
+                let element = build_element(e, n, base)?
+                    .map_err(|m| invalid(format!("nonlinear element {}: {m}", k + 1)))?;
+                // Checked here, in the numbering the job uses: a reduction would take an
+                // out-of-range dof for a fixed one.
+                if let Some(&dof) = element.dofs_used().iter().find(|&&d| d >= n) {
+                    return Err(model_error(ModelError::ElementDofOutOfRange {
+                        index: k,
+                        dof,
+                        dofs: n,
+                    }));
+                }
+                elements.push(element);
+            }
+            let (mass, stiffness, elements) = match &spec.fixed_dofs {
+                None => (
+                    mass,
+                    stiffness,
+                    elements.into_iter().map(|e| e.boxed()).collect(),
+                ),
+                Some(fixed) => {
+                    let fixed = FixedDofs::new(n, fixed).map_err(model_error)?;
+                    let elements: Vec<Box<dyn NonlinearElement>> =
+                        elements.iter().filter_map(|e| e.reduced(&fixed)).collect();
+                    (
+                        fixed.reduce_matrix("mass", &mass).map_err(model_error)?,
+                        fixed
+                            .reduce_matrix("stiffness", &stiffness)
+                            .map_err(model_error)?,
+                        elements,
+                    )
+                }
+            };
             let structure = Structure::new(mass, stiffness, elements).map_err(model_error)?;
             match &spec.cyclic {
                 Some(c) => structure
@@ -439,7 +485,60 @@ fn build_model(
     Ok((structure, family))
 }
 
-fn build_element(spec: &ElementSpec) -> Result<Box<dyn NonlinearElement>, String> {
+/// A nonlinear element of a general model, in the job's full numbering (before any
+/// `fixed_dofs` are removed).
+enum Element {
+    Spring(PolynomialSpring),
+    Tensor(PolynomialTensor),
+}
+
+impl Element {
+    fn dofs_used(&self) -> Vec<usize> {
+        match self {
+            Element::Spring(s) => s.dofs_used(),
+            Element::Tensor(t) => t.dofs_used(),
+        }
+    }
+
+    fn boxed(self) -> Box<dyn NonlinearElement> {
+        match self {
+            Element::Spring(s) => Box::new(s),
+            Element::Tensor(t) => Box::new(t),
+        }
+    }
+
+    /// The element on the model without the fixed dofs (docs/method.md eq. (61)); `None`
+    /// when nothing of it is left.
+    fn reduced(&self, fixed: &FixedDofs) -> Option<Box<dyn NonlinearElement>> {
+        match self {
+            Element::Spring(s) => s
+                .reduced(fixed)
+                .map(|s| Box::new(s) as Box<dyn NonlinearElement>),
+            Element::Tensor(t) => Some(Box::new(t.reduced(fixed))),
+        }
+    }
+}
+
+/// Builds one `[[model.nonlinear]]` element for a model of `n` dofs. The outer error is a
+/// tensor file's (it names that file); the inner one a message about the element itself.
+fn build_element(
+    spec: &ElementSpec,
+    n: usize,
+    base: &Path,
+) -> Result<Result<Element, String>, JobError> {
+    if spec.kind == "tensor" {
+        return build_tensor(spec, n, base);
+    }
+    if spec.quadratic.is_some() || spec.cubic.is_some() {
+        return Ok(Err(format!(
+            "`quadratic` and `cubic` files belong to a \"tensor\" element, not a \"{}\" one",
+            spec.kind
+        )));
+    }
+    Ok(build_spring(spec).map(Element::Spring))
+}
+
+fn build_spring(spec: &ElementSpec) -> Result<PolynomialSpring, String> {
     let exponent = match (spec.kind.as_str(), spec.exponent) {
         ("cubic", None | Some(3)) => 3,
         ("cubic", Some(p)) => return Err(format!("a cubic element has exponent 3, not {p}")),
@@ -448,33 +547,103 @@ fn build_element(spec: &ElementSpec) -> Result<Box<dyn NonlinearElement>, String
         ("polynomial", None) => return Err("a polynomial element needs `exponent`".into()),
         (other, _) => {
             return Err(format!(
-                "unknown type `{other}` (expected \"cubic\" or \"polynomial\")"
+                "unknown type `{other}` (expected \"cubic\", \"polynomial\" or \"tensor\")"
             ));
         }
     };
-    if !spec.coefficient.is_finite() {
-        return Err(format!(
-            "coefficient must be finite, got {}",
-            spec.coefficient
-        ));
+    let coefficient = spec
+        .coefficient
+        .ok_or_else(|| format!("a {} element needs `coefficient`", spec.kind))?;
+    if !coefficient.is_finite() {
+        return Err(format!("coefficient must be finite, got {coefficient}"));
     }
-    let (i, j) = match spec.dofs.as_slice() {
+    let dofs = spec
+        .dofs
+        .as_deref()
+        .ok_or_else(|| format!("a {} element needs `dofs`", spec.kind))?;
+    let (i, j) = match dofs {
         [i] => (*i, None),
         [i, j] if i != j => (*i, Some(*j)),
         [_, _] => return Err("`dofs` must name two different dofs".into()),
         _ => return Err("`dofs` must be [i] (to ground) or [i, j]".into()),
     };
-    Ok(Box::new(PolynomialSpring::new(
-        i,
-        j,
-        spec.coefficient,
-        exponent,
-    )))
+    Ok(PolynomialSpring::new(i, j, coefficient, exponent))
 }
 
+/// `type = "tensor"`: the terms of its `quadratic` and `cubic` files (1-based, relative to
+/// the job file), refused unless they are a gradient (docs/method.md eq. (59)).
+fn build_tensor(
+    spec: &ElementSpec,
+    n: usize,
+    base: &Path,
+) -> Result<Result<Element, String>, JobError> {
+    let spring_keys = [
+        ("dofs", spec.dofs.is_some()),
+        ("coefficient", spec.coefficient.is_some()),
+        ("exponent", spec.exponent.is_some()),
+    ];
+    if let Some((key, _)) = spring_keys.iter().find(|(_, given)| *given) {
+        return Ok(Err(format!(
+            "`{key}` does not apply to a tensor element (its terms are in its files)"
+        )));
+    }
+    if spec.quadratic.is_none() && spec.cubic.is_none() {
+        return Ok(Err(
+            "a tensor element needs `quadratic = { file = \"...\" }` and/or `cubic = { file = \"...\" }`"
+                .into(),
+        ));
+    }
+    let file_error = |file: &Path, message: String| JobError::Invalid {
+        path: file.to_owned(),
+        message,
+    };
+    let quadratic_file = spec.quadratic.as_ref().map(|f| base.join(&f.file));
+    let cubic_file = spec.cubic.as_ref().map(|f| base.join(&f.file));
+    let quadratic = match &quadratic_file {
+        Some(file) => read_terms::<2>(file, n).map_err(|m| file_error(file, m))?,
+        None => Vec::new(),
+    };
+    let cubic = match &cubic_file {
+        Some(file) => read_terms::<3>(file, n).map_err(|m| file_error(file, m))?,
+        None => Vec::new(),
+    };
+    let tensor = PolynomialTensor::new(
+        n,
+        quadratic
+            .into_iter()
+            .map(|(i, [j, k], c)| (i, j, k, c))
+            .collect(),
+        cubic
+            .into_iter()
+            .map(|(i, [j, k, l], c)| (i, j, k, l, c))
+            .collect(),
+    )
+    .map_err(|e| {
+        // Name the file of the offending degree; indices as the files write them.
+        let file = match &e {
+            TensorError::OutOfRange { degree, .. }
+            | TensorError::NotFinite { degree, .. }
+            | TensorError::NotGradient { degree, .. } => {
+                if *degree == "quadratic" {
+                    &quadratic_file
+                } else {
+                    &cubic_file
+                }
+            }
+        };
+        file_error(file.as_deref().unwrap_or(base), e.describe(1))
+    })?;
+    Ok(Ok(Element::Tensor(tensor)))
+}
+
+/// Reads `mass` (`expected` = `None`) or `stiffness` (`Some(n)`, the mass's size). A file's
+/// matrix is checked before it is stored: square, of the expected size, symmetric and finite
+/// (errors name the file and the entry, 1-based as in the file); a coordinate file stays
+/// sparse (`O(nnz)`, no size limit).
 fn load_matrix(
     spec: &MatrixSpec,
-    name: &str,
+    name: &'static str,
+    expected: Option<usize>,
     base: &Path,
     path: &Path,
 ) -> Result<Matrix, JobError> {
@@ -494,10 +663,69 @@ fn load_matrix(
             Ok(Matrix::from_fn(n, n, |i, j| rows[i][j]))
         }
         MatrixSpec::File { file } => {
-            let m = read_matrix_market(&base.join(file))?;
-            Ok(Matrix::from_fn(m.rows, m.cols, |i, j| m.get(i, j)))
+            let file = base.join(file);
+            let m = read_matrix_market(&file)?;
+            check_file_matrix(name, expected, &file, m)
         }
     }
+}
+
+/// Relative tolerance of the symmetry check of matrix files, on the largest entry: values
+/// written to full precision carry round-off of ~1e-16, so anything above 1e-12 is a
+/// modelling or export error, not noise.
+const FILE_SYMMETRY_TOLERANCE: f64 = 1e-12;
+
+fn check_file_matrix(
+    name: &'static str,
+    expected: Option<usize>,
+    file: &Path,
+    m: MarketMatrix,
+) -> Result<Matrix, JobError> {
+    let invalid = |message: String| JobError::Invalid {
+        path: file.to_owned(),
+        message: format!("{name} matrix {message}"),
+    };
+    let (rows, cols) = (m.rows(), m.cols());
+    if rows != cols {
+        return Err(invalid(format!("is {rows}x{cols}, not square")));
+    }
+    if let Some(n) = expected
+        && n != rows
+    {
+        return Err(invalid(format!(
+            "is {rows}x{rows}, expected {n}x{n} (the size of the mass matrix)"
+        )));
+    }
+    // A positive definite mass has every diagonal entry: a size beyond the stored entries is
+    // refused before any O(n) storage is made for it (the stiffness's size must then match).
+    if expected.is_none() && m.stored() < rows {
+        return Err(invalid(format!(
+            "is {rows}x{rows} but stores {} entries: it cannot be positive definite (every diagonal entry must be positive)",
+            m.stored()
+        )));
+    }
+    let m = m.into_matrix().expect("square");
+    // Duplicates summed in a coordinate file may overflow.
+    if let Matrix::Sparse(a) = &m {
+        let p = a.pattern();
+        if let Some(k) = a.values().iter().position(|v| !v.is_finite()) {
+            let row = p.row_start.partition_point(|&s| s <= k);
+            return Err(invalid(format!(
+                "entry ({row}, {}) is not finite after summing duplicates",
+                p.col[k] + 1
+            )));
+        }
+    }
+    if let Some((i, j, a, b)) = m.asymmetry(FILE_SYMMETRY_TOLERANCE) {
+        return Err(invalid(format!(
+            "is not symmetric: entry ({}, {}) = {a:e} but ({}, {}) = {b:e} (1-based; tolerance {FILE_SYMMETRY_TOLERANCE:e} of the largest entry)",
+            i + 1,
+            j + 1,
+            j + 1,
+            i + 1
+        )));
+    }
+    Ok(m)
 }
 
 /// One-line message of an I/O error (without the "(os error N)" suffix).

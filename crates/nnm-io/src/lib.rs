@@ -4,3 +4,4 @@
 pub mod job;
 pub mod matrix_market;
 pub mod output;
+pub mod tensor_file;

@@ -25,47 +25,78 @@
 //!
 //! `complex` and `pattern` fields, `hermitian` symmetry and objects other than
 //! `matrix` are rejected with [`MatrixMarketError::Unsupported`].
+//!
+//! Storage follows the format: a coordinate file is kept as its entries (memory `O(nnz)`,
+//! whatever its size) and becomes a compressed-row [`SparseMatrix`] with duplicates summed
+//! ([`MarketMatrix::into_matrix`]); an array file is dense by nature and kept dense, refused
+//! only when it does not fit in memory.
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-/// Largest dense matrix the reader accepts (10⁴ × 10⁴ doubles = 800 MB).
-pub const MAX_DENSE_DOFS: usize = 10_000;
+use nnm::model::{Matrix, SparseMatrix};
 
-/// A dense real matrix stored row-major: entry `(i, j)` is `data[i * cols + j]`.
+/// A matrix as a Matrix Market file gives it, in the storage its format implies.
 #[derive(Debug, Clone, PartialEq)]
-pub struct DenseMatrix {
-    pub rows: usize,
-    pub cols: usize,
-    pub data: Vec<f64>,
+pub enum MarketMatrix {
+    /// A coordinate file: its entries `(row, col, value)`, 0-based, in file order, each
+    /// off-diagonal entry of a (skew-)symmetric file followed by its mirror; duplicates are
+    /// kept (summed by [`Self::into_matrix`]). Memory `O(nnz)`.
+    Coordinate {
+        rows: usize,
+        cols: usize,
+        entries: Vec<(usize, usize, f64)>,
+    },
+    /// An array file: every entry, column-major (`(i, j)` at `data[j * rows + i]`).
+    Array {
+        rows: usize,
+        cols: usize,
+        data: Vec<f64>,
+    },
 }
 
-impl DenseMatrix {
-    /// A `rows x cols` matrix of zeros.
-    pub fn zeros(rows: usize, cols: usize) -> Self {
-        Self {
-            rows,
-            cols,
-            data: vec![0.0; rows * cols],
+impl MarketMatrix {
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        match self {
+            MarketMatrix::Coordinate { rows, .. } | MarketMatrix::Array { rows, .. } => *rows,
         }
     }
 
-    /// Entry at 0-based row `i`, column `j`.
-    ///
-    /// # Panics
-    /// If `i >= rows` or `j >= cols`.
-    pub fn get(&self, i: usize, j: usize) -> f64 {
-        assert!(
-            i < self.rows && j < self.cols,
-            "index ({i}, {j}) out of range for {}x{} matrix",
-            self.rows,
-            self.cols
-        );
-        self.data[i * self.cols + j]
+    /// Number of columns.
+    pub fn cols(&self) -> usize {
+        match self {
+            MarketMatrix::Coordinate { cols, .. } | MarketMatrix::Array { cols, .. } => *cols,
+        }
     }
 
-    fn add(&mut self, i: usize, j: usize, v: f64) {
-        self.data[i * self.cols + j] += v;
+    /// Number of stored entries (mirrors of symmetric files included, duplicates counted).
+    pub fn stored(&self) -> usize {
+        match self {
+            MarketMatrix::Coordinate { entries, .. } => entries.len(),
+            MarketMatrix::Array { data, .. } => data.len(),
+        }
+    }
+
+    /// The model's matrix: sparse compressed rows for a coordinate file (duplicates summed,
+    /// the finite-element assembly convention; no dense copy), dense for an array file.
+    /// `None` when the matrix is not square (a model's matrices are).
+    pub fn into_matrix(self) -> Option<Matrix> {
+        match self {
+            MarketMatrix::Coordinate {
+                rows,
+                cols,
+                entries,
+            } => (rows == cols).then(|| {
+                Matrix::Sparse(
+                    SparseMatrix::from_triplets(rows, &entries)
+                        .expect("entries were checked against the size"),
+                )
+            }),
+            MarketMatrix::Array { rows, cols, data } => {
+                (rows == cols).then(|| Matrix::from_fn(rows, rows, |i, j| data[j * rows + i]))
+            }
+        }
     }
 }
 
@@ -108,8 +139,9 @@ pub enum MatrixMarketError {
         rows: usize,
         cols: usize,
     },
+    /// An array (dense) file whose size does not fit in memory.
     #[error(
-        "line {line}: matrix size {rows}x{cols} is too large for dense storage (at most {MAX_DENSE_DOFS} rows and columns)"
+        "line {line}: array matrix of size {rows}x{cols} is too large for dense storage (write it in coordinate format)"
     )]
     TooLarge {
         line: usize,
@@ -184,7 +216,7 @@ impl fmt::Display for Symmetry {
 
 /// Reads a Matrix Market file; parse errors are wrapped in
 /// [`MatrixMarketError::InFile`] so their message names the file.
-pub fn read_matrix_market(path: &Path) -> Result<DenseMatrix, MatrixMarketError> {
+pub fn read_matrix_market(path: &Path) -> Result<MarketMatrix, MatrixMarketError> {
     let text = std::fs::read_to_string(path).map_err(|error| MatrixMarketError::Io {
         path: path.to_path_buf(),
         error,
@@ -196,7 +228,7 @@ pub fn read_matrix_market(path: &Path) -> Result<DenseMatrix, MatrixMarketError>
 }
 
 /// Parses the text of a Matrix Market file (format described in the module docs).
-pub fn parse_matrix_market(text: &str) -> Result<DenseMatrix, MatrixMarketError> {
+pub fn parse_matrix_market(text: &str) -> Result<MarketMatrix, MatrixMarketError> {
     use MatrixMarketError as E;
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let last_line = text.lines().count().max(1);
@@ -236,12 +268,6 @@ pub fn parse_matrix_market(text: &str) -> Result<DenseMatrix, MatrixMarketError>
             cols,
         });
     }
-    // Models are stored densely: cap the size before allocating rather than abort on an
-    // allocation failure.
-    if rows > MAX_DENSE_DOFS || cols > MAX_DENSE_DOFS {
-        return Err(E::TooLarge { line, rows, cols });
-    }
-    let mut m = DenseMatrix::zeros(rows, cols);
     let value = |token: &str, line| parse_value(token, integer, line);
     // Sign of the mirrored off-diagonal entry in symmetric storage.
     let mirror = if symmetry == Symmetry::SkewSymmetric {
@@ -251,7 +277,11 @@ pub fn parse_matrix_market(text: &str) -> Result<DenseMatrix, MatrixMarketError>
     };
 
     let mut found = 0;
-    let expected = if coordinate {
+    if coordinate {
+        // No capacity from the header alone (it may lie): at most one entry per 6 bytes
+        // ("1 1 1\n"), two with the mirror.
+        let mirrored = if symmetry == Symmetry::General { 1 } else { 2 };
+        let mut entries = Vec::with_capacity(nnz.min(text.len() / 6) * mirrored);
         let (mut lower, mut upper) = (false, false);
         for (line, entry) in data {
             if found == nnz {
@@ -277,7 +307,7 @@ pub fn parse_matrix_market(text: &str) -> Result<DenseMatrix, MatrixMarketError>
             }
             let v = value(v, line)?;
             let (i, j) = (i - 1, j - 1);
-            m.add(i, j, v);
+            entries.push((i, j, v));
             if symmetry != Symmetry::General {
                 if i == j && symmetry == Symmetry::SkewSymmetric && v != 0.0 {
                     return Err(E::SkewDiagonal { line, index: i + 1 });
@@ -288,12 +318,23 @@ pub fn parse_matrix_market(text: &str) -> Result<DenseMatrix, MatrixMarketError>
                     if lower && upper {
                         return Err(E::BothTriangles { line, symmetry });
                     }
-                    m.add(j, i, mirror * v);
+                    entries.push((j, i, mirror * v));
                 }
             }
             found += 1;
         }
-        nnz
+        if found < nnz {
+            return Err(E::TooFewEntries {
+                line: last_line,
+                expected: nnz,
+                found,
+            });
+        }
+        Ok(MarketMatrix::Coordinate {
+            rows,
+            cols,
+            entries,
+        })
     } else {
         // File order of the stored entries: column-major, from the first
         // stored row of each column.
@@ -302,10 +343,19 @@ pub fn parse_matrix_market(text: &str) -> Result<DenseMatrix, MatrixMarketError>
             Symmetry::Symmetric => j,
             Symmetry::SkewSymmetric => j + 1,
         };
+        // Dense storage: refuse what cannot be allocated rather than abort.
+        let too_large = E::TooLarge { line, rows, cols };
+        let size = rows.checked_mul(cols).ok_or(too_large)?;
+        let mut values = Vec::new();
+        if values.try_reserve_exact(size).is_err() {
+            return Err(E::TooLarge { line, rows, cols });
+        }
+        values.resize(size, 0.0);
         let expected = match symmetry {
-            Symmetry::General => rows * cols,
-            Symmetry::Symmetric => rows * (rows + 1) / 2,
-            Symmetry::SkewSymmetric => rows * rows.saturating_sub(1) / 2,
+            Symmetry::General => size,
+            // Square here; `size` fits in memory, so `size + rows` does not overflow.
+            Symmetry::Symmetric => (size + rows) / 2,
+            Symmetry::SkewSymmetric => (size - rows) / 2,
         };
         let mut slots = (0..cols).flat_map(|j| (first_row(j)..rows).map(move |i| (i, j)));
         for (line, entry) in data {
@@ -318,22 +368,25 @@ pub fn parse_matrix_market(text: &str) -> Result<DenseMatrix, MatrixMarketError>
                 });
             };
             let v = value(v, line)?;
-            m.add(i, j, v);
+            values[j * rows + i] += v;
             if i != j && symmetry != Symmetry::General {
-                m.add(j, i, mirror * v);
+                values[i * rows + j] += mirror * v;
             }
             found += 1;
         }
-        expected
-    };
-    if found < expected {
-        return Err(E::TooFewEntries {
-            line: last_line,
-            expected,
-            found,
-        });
+        if found < expected {
+            return Err(E::TooFewEntries {
+                line: last_line,
+                expected,
+                found,
+            });
+        }
+        Ok(MarketMatrix::Array {
+            rows,
+            cols,
+            data: values,
+        })
     }
-    Ok(m)
 }
 
 /// Parses the header line into (is coordinate, is integer, symmetry).
@@ -386,7 +439,8 @@ fn three_tokens(s: &str) -> Option<[&str; 3]> {
     t.next().is_none().then_some(tokens)
 }
 
-fn parse_index(token: &str, line: usize) -> Result<usize, MatrixMarketError> {
+/// A 1-based index token (shared with the tensor term files, which index like this format).
+pub(crate) fn parse_index(token: &str, line: usize) -> Result<usize, MatrixMarketError> {
     token.parse().map_err(|_| MatrixMarketError::BadNumber {
         line,
         token: token.to_owned(),
@@ -394,7 +448,13 @@ fn parse_index(token: &str, line: usize) -> Result<usize, MatrixMarketError> {
     })
 }
 
-fn parse_value(token: &str, integer: bool, line: usize) -> Result<f64, MatrixMarketError> {
+/// A value token: integer fields exact, real ones also with a Fortran `D` exponent; never NaN
+/// or infinite (shared with the tensor term files, which finite-element codes write alike).
+pub(crate) fn parse_value(
+    token: &str,
+    integer: bool,
+    line: usize,
+) -> Result<f64, MatrixMarketError> {
     let bad = |what| MatrixMarketError::BadNumber {
         line,
         token: token.to_owned(),
@@ -423,8 +483,30 @@ mod tests {
     use super::*;
     use MatrixMarketError as E;
 
-    fn parse(text: &str) -> DenseMatrix {
-        parse_matrix_market(text).unwrap_or_else(|e| panic!("{e}"))
+    /// `(rows, cols, row-major entries)` of a matrix (tests only: the reader never densifies
+    /// a coordinate file).
+    type Dense = (usize, usize, Vec<f64>);
+
+    fn densify(m: &MarketMatrix) -> Dense {
+        let (rows, cols) = (m.rows(), m.cols());
+        let mut data = vec![0.0; rows * cols];
+        match m {
+            MarketMatrix::Coordinate { entries, .. } => {
+                for &(i, j, v) in entries {
+                    data[i * cols + j] += v;
+                }
+            }
+            MarketMatrix::Array { data: d, .. } => {
+                for (k, v) in d.iter().enumerate() {
+                    data[(k % rows) * cols + k / rows] = *v;
+                }
+            }
+        }
+        (rows, cols, data)
+    }
+
+    fn parse(text: &str) -> Dense {
+        densify(&parse_matrix_market(text).unwrap_or_else(|e| panic!("{e}")))
     }
 
     fn err(text: &str) -> MatrixMarketError {
@@ -437,12 +519,8 @@ mod tests {
         e
     }
 
-    fn dense(rows: usize, cols: usize, data: &[f64]) -> DenseMatrix {
-        DenseMatrix {
-            rows,
-            cols,
-            data: data.to_vec(),
-        }
+    fn dense(rows: usize, cols: usize, data: &[f64]) -> Dense {
+        (rows, cols, data.to_vec())
     }
 
     #[test]
@@ -452,7 +530,6 @@ mod tests {
              1 1 1.5\r\n  % indented comment\r\n2 3 -2e1\r\n\r\n1 1 0.5\r\n1 2 3\r\n",
         );
         assert_eq!(m, dense(2, 3, &[2.0, 3.0, 0.0, 0.0, 0.0, -20.0]));
-        assert_eq!(m.get(1, 2), -20.0);
     }
 
     #[test]
@@ -460,7 +537,7 @@ mod tests {
         let m = parse("%%MatrixMarket matrix coordinate integer general\n1 2 2\n1 1 -3\n1 2 +7\n");
         assert_eq!(m, dense(1, 2, &[-3.0, 7.0]));
         let m = parse("%%MatrixMarket matrix coordinate real general\n1 1 1\n1 1 1.5D+03\n");
-        assert_eq!(m.get(0, 0), 1500.0);
+        assert_eq!(m.2, [1500.0]);
     }
 
     #[test]
@@ -478,6 +555,21 @@ mod tests {
         let upper = "%%MatrixMarket matrix coordinate real symmetric\n3 3 6\n\
                      1 1 4\n1 2 -1\n2 2 4\n2 3 -0.5\n2 3 -0.5\n3 3 2\n";
         assert_eq!(parse(upper), parse(general));
+        // In the model's sparse storage: the same compressed rows, both triangles stored.
+        let sparse = |text: &str| match parse_matrix_market(text).unwrap().into_matrix() {
+            Some(Matrix::Sparse(a)) => a,
+            other => panic!("{other:?}"),
+        };
+        let (s, g) = (sparse(sym), sparse(general));
+        assert_eq!(s, g);
+        assert_eq!(s.pattern().col, [0, 1, 0, 1, 2, 1, 2]);
+        assert_eq!(s.values(), [4.0, -1.0, -1.0, 4.0, -1.0, -1.0, 2.0]);
+        assert_eq!(sparse(upper), g);
+        // An array file stays dense.
+        let array = "%%MatrixMarket matrix array real symmetric\n3 3\n4\n-1\n0\n4\n-1\n2\n";
+        let m = parse_matrix_market(array).unwrap().into_matrix().unwrap();
+        assert!(matches!(m, Matrix::Dense(_)));
+        assert_eq!(m.to_dense(), Matrix::Sparse(g).to_dense());
     }
 
     #[test]
@@ -597,8 +689,17 @@ mod tests {
                 ..
             }
         ));
-        let huge = format!("{h}{} {} 0\n", usize::MAX / 2, 3);
-        assert!(matches!(err(&huge), E::TooLarge { line: 2, .. }));
+        // A dense (array) matrix that cannot be allocated is an error, not an abort; a
+        // coordinate one of the same size holds only its entries.
+        let a = "%%MatrixMarket matrix array real general\n";
+        for (rows, cols) in [(usize::MAX / 2, 3), (1 << 40, 1 << 20)] {
+            let huge = format!("{a}{rows} {cols}\n");
+            assert!(matches!(err(&huge), E::TooLarge { line: 2, .. }));
+        }
+        let huge = format!("{h}{} {} 1\n{} 3 1.5\n", usize::MAX / 2, 3, usize::MAX / 4);
+        let m = parse_matrix_market(&huge).unwrap();
+        assert_eq!(m.stored(), 1);
+        assert!(m.into_matrix().is_none(), "not square");
     }
 
     #[test]
@@ -722,7 +823,10 @@ mod tests {
             "%%MatrixMarket matrix array real general\n1 1\n2.5\n",
         )
         .unwrap();
-        assert_eq!(read_matrix_market(&good).unwrap(), dense(1, 1, &[2.5]));
+        assert_eq!(
+            densify(&read_matrix_market(&good).unwrap()),
+            dense(1, 1, &[2.5])
+        );
 
         let bad = dir.join("M.mtx");
         std::fs::write(&bad, "%%MatrixMarket matrix array real general\n1 1\nx\n").unwrap();

@@ -1,4 +1,5 @@
 use super::*;
+use nnm::model::{PolynomialSpring, PolynomialTensor};
 use nnm::shooting::{JacobianMethod, PhaseCondition};
 
 fn parse(text: &str) -> Result<Job, JobError> {
@@ -164,8 +165,7 @@ fn bad_jobs_get_one_line_errors() {
 
 #[test]
 fn matrix_market_files_resolve_relative_to_the_job() {
-    let dir = std::env::temp_dir().join(format!("nnm-job-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("relative");
     std::fs::write(
         dir.join("K.mtx"),
         "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 2.0\n2 1 -1.0\n2 2 2.0\n",
@@ -199,4 +199,394 @@ fn settings_keys_are_the_serialized_fields() {
         "[model]\nfamily = \"two-dof\"\n[[branch]]\nname = \"a\"\nmode = 0\nenergy_max = 1.0\ntolerence = 1e-9",
     );
     assert!(e.contains("unknown field `tolerence`"), "{e}");
+}
+
+/// A scratch folder for files a job refers to.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("nnm-job-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes `(row, col, value)` triplets (0-based) as a Matrix Market coordinate file, values to
+/// full precision.
+fn write_mtx(path: &Path, n: usize, symmetry: &str, entries: &[(usize, usize, f64)]) {
+    let mut text = format!(
+        "%%MatrixMarket matrix coordinate real {symmetry}\n% written by a test\n{n} {n} {}\n",
+        entries.len()
+    );
+    for (i, j, v) in entries {
+        text.push_str(&format!("{} {} {v:.17e}\n", i + 1, j + 1));
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+fn internal_force(s: &Structure, x: &[f64]) -> Vec<f64> {
+    use nnm::MechanicalSystem;
+    let mut f = vec![0.0; x.len()];
+    s.internal_force(x, &mut f);
+    f
+}
+
+/// Largest `|a - b|` over the entries of two `n × n` matrices, relative to the largest `|b|`.
+fn matrix_difference(a: &Matrix, b: &Matrix) -> f64 {
+    let n = b.nrows();
+    assert_eq!(a.nrows(), n);
+    let (mut diff, mut scale) = (0.0_f64, 0.0_f64);
+    for i in 0..n {
+        for j in 0..n {
+            diff = diff.max((a.get(i, j) - b.get(i, j)).abs());
+            scale = scale.max(b.get(i, j).abs());
+        }
+    }
+    diff / scale
+}
+
+/// `|a - b|∞ / |b|∞`.
+fn vector_difference(a: &[f64], b: &[f64]) -> f64 {
+    let diff = a
+        .iter()
+        .zip(b)
+        .fold(0.0_f64, |d, (x, y)| d.max((x - y).abs()));
+    diff / b.iter().fold(0.0_f64, |s, y| s.max(y.abs()))
+}
+
+/// A 4-mass chain whose first mass is fixed through `fixed_dofs` (sparse files, a cubic spring
+/// from the fixed mass to mass 1, a tensor with terms on the fixed dof) is the 3-mass chain
+/// built by hand: a ground spring where the chain was fixed, the tensor's terms on the fixed
+/// dof gone (docs/method.md eq. (61)).
+#[test]
+fn fixed_dofs_give_the_reduced_model() {
+    use nnm::model::SparseMatrix;
+    let dir = scratch("fixed");
+    let (k, m) = (3.0, 2.0);
+    let mut stiffness = Vec::new();
+    for e in 0..3 {
+        // Element e joins masses e and e + 1: an assembly with duplicates on the diagonal.
+        stiffness.extend([(e, e, k), (e + 1, e, -k), (e, e + 1, -k), (e + 1, e + 1, k)]);
+    }
+    write_mtx(&dir.join("K.mtx"), 4, "general", &stiffness);
+    write_mtx(
+        &dir.join("M.mtx"),
+        4,
+        "symmetric",
+        &[(0, 0, m), (1, 1, m), (2, 2, m), (3, 3, m)],
+    );
+    // V = x0 x1 x3 + 0.5 x2² x3 (quadratic forces), V = 0.25 x1⁴ + x0 x2³ (cubic).
+    std::fs::write(
+        dir.join("f2.txt"),
+        "% i j k c\n1 2 4 1.0\n2 1 4 1.0\n4 1 2 1.0\n\n3 3 4 1.0\n4 3 3 0.5\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("f3.txt"),
+        "2 2 2 2 1.0\n1 3 3 3 1.0\n3 1 3 3 3.0\n",
+    )
+    .unwrap();
+    let job_path = dir.join("job.toml");
+    std::fs::write(
+        &job_path,
+        r#"
+        [model]
+        mass = { file = "M.mtx" }
+        stiffness = { file = "K.mtx" }
+        fixed_dofs = [0]
+        [[model.nonlinear]]
+        type = "cubic"
+        dofs = [0, 1]
+        coefficient = 0.5
+        [[model.nonlinear]]
+        type = "tensor"
+        quadratic = { file = "f2.txt" }
+        cubic = { file = "f3.txt" }
+        "#,
+    )
+    .unwrap();
+    let job = load_job(&job_path).unwrap();
+    assert!(matches!(job.structure.stiffness(), Matrix::Sparse(_)));
+    // By hand, free masses 1, 2, 3 → 0, 1, 2: the chain clamped at its left end.
+    let k_hand = SparseMatrix::from_triplets(
+        3,
+        &[
+            (0, 0, 2.0 * k),
+            (0, 1, -k),
+            (1, 0, -k),
+            (1, 1, 2.0 * k),
+            (1, 2, -k),
+            (2, 1, -k),
+            (2, 2, k),
+        ],
+    )
+    .unwrap();
+    let hand = Structure::new(
+        Matrix::from_fn(3, 3, |i, j| if i == j { m } else { 0.0 }),
+        k_hand,
+        vec![
+            // c (x0 − x1)³ with x0 = 0: −c (−x1)³ = c x1³ on dof 1, to ground.
+            Box::new(PolynomialSpring::cubic(0, None, 0.5)),
+            // 0.5 x2² x3 → x_1 x_2 on 1, 0.5 x_1² on 2; 0.25 x1⁴ → x_0³ on 0.
+            Box::new(
+                PolynomialTensor::new(
+                    3,
+                    vec![(1, 1, 2, 1.0), (2, 1, 1, 0.5)],
+                    vec![(0, 0, 0, 0, 1.0)],
+                )
+                .unwrap(),
+            ),
+        ],
+    )
+    .unwrap();
+    assert_eq!(
+        matrix_difference(job.structure.stiffness(), hand.stiffness()),
+        0.0
+    );
+    assert_eq!(
+        matrix_difference(job.structure.mass_matrix(), hand.mass_matrix()),
+        0.0
+    );
+    use nnm::MechanicalSystem;
+    for x in [[0.3, -0.7, 1.1], [-1.3, 0.2, 0.05]] {
+        let (a, b) = (
+            internal_force(&job.structure, &x),
+            internal_force(&hand, &x),
+        );
+        assert!(vector_difference(&a, &b) < 1e-14, "{a:?} vs {b:?}");
+        let (va, vb) = (
+            job.structure.potential_energy(&x),
+            hand.potential_energy(&x),
+        );
+        assert!((va - vb).abs() < 1e-14 * vb.abs(), "{va} vs {vb}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The ECL cantilever beam as a finite-element code exports it: the unconstrained mass and
+/// stiffness of all `elements + 1` nodes (stiffness element by element, duplicates summed;
+/// mass assembled, lower triangle of a symmetric file), the root's two dofs removed by
+/// `fixed_dofs`, the tip spring as one cubic tensor term — is the built-in family: same `M`,
+/// `K`, internal force and tangent to round-off.
+#[test]
+fn exported_cantilever_beam_is_the_family() {
+    use nnm::MechanicalSystem;
+    use nnm::model::CantileverBeam;
+    let beam = CantileverBeam::default();
+    let family = beam.build().unwrap();
+    let e = beam.elements;
+    let n = 2 * e; // clamped model; full model has n + 2 dofs
+    // One element's 4 × 4 matrix from the clamped assembly (all elements are equal): the tip
+    // block is its (2..4, 2..4) block, the last coupling its (0..2, 2..4) block, and the
+    // node before the tip holds (2..4, 2..4) + (0..2, 0..2).
+    let element = |a: &Matrix| -> [[f64; 4]; 4] {
+        let mut out = [[0.0; 4]; 4];
+        let (before, tip) = (n - 4, n - 2);
+        for p in 0..2 {
+            for q in 0..2 {
+                out[2 + p][2 + q] = a.get(tip + p, tip + q);
+                out[p][2 + q] = a.get(before + p, tip + q);
+                out[2 + q][p] = a.get(tip + q, before + p);
+                out[p][q] = a.get(before + p, before + q) - a.get(tip + p, tip + q);
+            }
+        }
+        out
+    };
+    let (m_e, k_e) = (element(family.mass_matrix()), element(family.stiffness()));
+    // Full numbering: node i has dofs 2i, 2i + 1 (node 0 the root).
+    let mut k_full = Vec::new();
+    let mut m_full = Vec::new();
+    for el in 0..e {
+        for (a, row) in k_e.iter().enumerate() {
+            for (b, &v) in row.iter().enumerate() {
+                k_full.push((2 * el + a, 2 * el + b, v));
+            }
+        }
+    }
+    // Mass: the clamped assembly shifted by one node, plus the root's rows from element 0.
+    let clamped = family.mass_matrix();
+    for i in 0..n {
+        for j in 0..=i {
+            let v = clamped.get(i, j);
+            if v != 0.0 {
+                m_full.push((i + 2, j + 2, v));
+            }
+        }
+    }
+    for (a, row) in m_e.iter().enumerate().take(2) {
+        for (b, &v) in row.iter().enumerate().skip(a) {
+            m_full.push((b, a, v));
+        }
+    }
+    let dir = scratch("beam");
+    write_mtx(&dir.join("K.mtx"), n + 2, "general", &k_full);
+    write_mtx(&dir.join("M.mtx"), n + 2, "symmetric", &m_full);
+    let tip = n + 1; // 1-based: the tip's displacement in the full numbering
+    std::fs::write(
+        dir.join("tip.txt"),
+        format!(
+            "% the tip spring, f = c w^3\n{tip} {tip} {tip} {tip} {:e}\n",
+            beam.cubic
+        ),
+    )
+    .unwrap();
+    let job_path = dir.join("beam.toml");
+    std::fs::write(
+        &job_path,
+        "[model]\nmass = { file = \"M.mtx\" }\nstiffness = { file = \"K.mtx\" }\n\
+         fixed_dofs = [0, 1]\n[[model.nonlinear]]\ntype = \"tensor\"\ncubic = { file = \"tip.txt\" }\n",
+    )
+    .unwrap();
+    let job = load_job(&job_path).unwrap();
+    let s = &job.structure;
+    assert_eq!(s.dofs(), n);
+    assert!(matrix_difference(s.stiffness(), family.stiffness()) < 1e-14);
+    assert!(matrix_difference(s.mass_matrix(), family.mass_matrix()) < 1e-14);
+    assert!(
+        s.tangent_pattern().is_some(),
+        "sparse K + tensor keep an assembled tangent"
+    );
+    // Displacements of the first mode's size (1 cm at the tip), rotations ~ w / L.
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut random = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    for _ in 0..3 {
+        let x: Vec<f64> = (0..n)
+            .map(|d| 1e-2 * random() * if d % 2 == 0 { 1.0 } else { 10.0 })
+            .collect();
+        let (a, b) = (internal_force(s, &x), internal_force(&family, &x));
+        let error = vector_difference(&a, &b);
+        assert!(error < 1e-12, "internal force differs by {error:e}");
+        let v: Vec<f64> = (0..n).map(|_| random()).collect();
+        let (mut ta, mut tb) = (vec![0.0; n], vec![0.0; n]);
+        use nnm::model::{Block, BlockMut};
+        s.tangent_stiffness(&x, Block::new(&v, n, 1, n), BlockMut::new(&mut ta, n, 1, n));
+        family.tangent_stiffness(&x, Block::new(&v, n, 1, n), BlockMut::new(&mut tb, n, 1, n));
+        assert!(vector_difference(&ta, &tb) < 1e-12);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Input errors of sparse files, fixed dofs and tensor elements: one line, naming the file
+/// and the place.
+#[test]
+fn sparse_model_errors_name_the_file() {
+    let dir = scratch("errors");
+    let path = |f: &str| dir.join(f).display().to_string();
+    write_mtx(
+        &dir.join("M.mtx"),
+        2,
+        "symmetric",
+        &[(0, 0, 1.0), (1, 1, 1.0)],
+    );
+    write_mtx(
+        &dir.join("K.mtx"),
+        2,
+        "general",
+        &[(0, 0, 2.0), (0, 1, -1.0), (1, 0, -1.0 + 1e-9), (1, 1, 2.0)],
+    );
+    write_mtx(&dir.join("K3.mtx"), 3, "symmetric", &[(0, 0, 1.0)]);
+    // 10⁹ dofs announced, one entry: refused before any O(n) storage.
+    std::fs::write(
+        dir.join("huge.mtx"),
+        "%%MatrixMarket matrix coordinate real symmetric\n1000000000 1000000000 1\n1 1 1.0\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("bad-gradient.txt"), "1 2 2 1.0\n").unwrap();
+    std::fs::write(dir.join("bad-line.txt"), "% ok\n1 1 1 1 1.0\n2 1 1 9 1.0\n").unwrap();
+    std::fs::write(dir.join("ok2.txt"), "1 1 1 1.0\n").unwrap();
+    let good = "mass = { file = \"M.mtx\" }\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n";
+    let cases = [
+        (
+            "mass = { file = \"M.mtx\" }\nstiffness = { file = \"K.mtx\" }\n".to_string(),
+            format!("{}: stiffness matrix is not symmetric: entry (1, 2) = -1e0 but (2, 1) = -9.99999999e-1 (1-based", path("K.mtx")),
+        ),
+        (
+            "mass = { file = \"M.mtx\" }\nstiffness = { file = \"K3.mtx\" }\n".to_string(),
+            format!("{}: stiffness matrix is 3x3, expected 2x2", path("K3.mtx")),
+        ),
+        (
+            "mass = { file = \"huge.mtx\" }\nstiffness = { file = \"huge.mtx\" }\n".to_string(),
+            "mass matrix is 1000000000x1000000000 but stores 1 entries: it cannot be positive definite".to_string(),
+        ),
+        (format!("{good}fixed_dofs = [2]\n"), "fixed dof 2 is outside the 2 dofs".to_string()),
+        (format!("{good}fixed_dofs = [0, 1]\n"), "model has no degrees of freedom".to_string()),
+        (
+            format!("{good}[[model.nonlinear]]\ntype = \"tensor\"\nquadratic = {{ file = \"bad-gradient.txt\" }}\n"),
+            format!("{}: quadratic terms are not the gradient of a potential", path("bad-gradient.txt")),
+        ),
+        (
+            format!("{good}[[model.nonlinear]]\ntype = \"tensor\"\ncubic = {{ file = \"bad-line.txt\" }}\n"),
+            format!("{}: line 3: index 9 out of range for a model of 2 dofs", path("bad-line.txt")),
+        ),
+        (
+            format!("{good}[[model.nonlinear]]\ntype = \"tensor\"\ncubic = {{ file = \"ok2.txt\" }}\n"),
+            format!("{}: line 1: expected `i j k l c` (5 numbers), found 4", path("ok2.txt")),
+        ),
+        (
+            format!("{good}[[model.nonlinear]]\ntype = \"tensor\"\n"),
+            "nonlinear element 1: a tensor element needs `quadratic".to_string(),
+        ),
+        (
+            format!("{good}[[model.nonlinear]]\ntype = \"tensor\"\ndofs = [0]\nquadratic = {{ file = \"ok2.txt\" }}\n"),
+            "`dofs` does not apply to a tensor element".to_string(),
+        ),
+        (
+            format!("{good}[[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\ncoefficient = 1.0\ncubic = {{ file = \"ok2.txt\" }}\n"),
+            "belong to a \"tensor\" element".to_string(),
+        ),
+        (
+            format!("{good}[[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\n"),
+            "a cubic element needs `coefficient`".to_string(),
+        ),
+    ];
+    for (model, expected) in cases {
+        let text = format!("[model]\n{model}");
+        let e = parse_job(&text, &dir.join("job.toml"))
+            .expect_err(&text)
+            .to_string();
+        assert!(!e.contains('\n'), "{e}");
+        assert!(
+            e.contains(&expected),
+            "for {text:?}:\n got `{e}`\nwant `{expected}`"
+        );
+    }
+    // The family models take no fixed dofs.
+    let e = error("[model]\nfamily = \"duffing\"\nfixed_dofs = [0]");
+    assert!(
+        e.contains("`fixed_dofs` does not apply to family `duffing`"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The example `examples/tensor-model/` is the clamped chain it describes: its expanded
+/// quartic link potentials and quadratic term are the springs they stand for.
+#[test]
+fn tensor_model_example_is_the_clamped_chain() {
+    let job = load_job(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/tensor-model/tensor-model.toml"
+    )))
+    .unwrap();
+    let hand = Structure::new(
+        Matrix::identity(2),
+        Matrix::from_fn(2, 2, |i, j| [[2.0, -1.0], [-1.0, 1.0]][i][j]),
+        vec![
+            Box::new(PolynomialSpring::cubic(0, None, 0.5)),
+            Box::new(PolynomialSpring::cubic(0, Some(1), 0.5)),
+            Box::new(PolynomialSpring::new(1, None, 0.1, 2)),
+        ],
+    )
+    .unwrap();
+    assert_eq!(job.branches.len(), 1);
+    for x in [[0.4, -1.2], [1.5, 0.7]] {
+        let (a, b) = (
+            internal_force(&job.structure, &x),
+            internal_force(&hand, &x),
+        );
+        assert!(vector_difference(&a, &b) < 1e-14, "{a:?} vs {b:?}");
+    }
 }

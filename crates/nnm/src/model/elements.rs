@@ -1,6 +1,6 @@
 //! The catalogue of nonlinear elements.
 
-use super::{Block, BlockMut, NonlinearElement};
+use super::{Block, BlockMut, FixedDofs, NonlinearElement};
 
 /// A polynomial spring `f = c (x_i - x_j)^p` acting on dof `i`, with the opposite force on
 /// dof `j` (or tied to ground when `j` is `None`). `p = 3` is the cubic spring of the paper;
@@ -34,6 +34,25 @@ impl PolynomialSpring {
     /// The paper's cubic spring.
     pub fn cubic(i: usize, j: Option<usize>, coefficient: f64) -> Self {
         Self::new(i, j, coefficient, 3)
+    }
+
+    /// The same spring on the model with `fixed`'s dofs held at zero and removed
+    /// (docs/method.md eq. (61)), in the reduced numbering; `None` when both ends are fixed
+    /// (it never stretches). A spring with one fixed end ties the other to ground: with `x_i`
+    /// fixed, `f_j = −c (−x_j)ᵖ = (−1)^(p+1) c x_jᵖ`.
+    pub fn reduced(&self, fixed: &FixedDofs) -> Option<Self> {
+        let i = fixed.reduced_index(self.i);
+        let j = self.j.map(|j| fixed.reduced_index(j));
+        let (i, j, coefficient) = match (i, j) {
+            (Some(i), None | Some(None)) => (i, None, self.coefficient),
+            (Some(i), Some(Some(j))) => (i, Some(j), self.coefficient),
+            (None, Some(Some(j))) => {
+                let sign = if self.exponent % 2 == 1 { 1.0 } else { -1.0 };
+                (j, None, sign * self.coefficient)
+            }
+            (None, None | Some(None)) => return None,
+        };
+        Some(Self::new(i, j, coefficient, self.exponent))
     }
 
     fn stretch(&self, x: &[f64]) -> f64 {

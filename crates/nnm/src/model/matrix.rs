@@ -262,6 +262,49 @@ impl Matrix {
         }
     }
 
+    /// The first entry `(i, j, a_ij, a_ji)`, in storage order, where `A` and `Aᵀ` differ by
+    /// more than `relative` times the largest `|entry|` (a missing mirror counts as zero), if
+    /// any. `O(nnz log)` for a sparse matrix (a binary search per mirror). NaN entries are not
+    /// reported here (check finiteness first).
+    pub fn asymmetry(&self, relative: f64) -> Option<(usize, usize, f64, f64)> {
+        let scale = self.entries().fold(0.0_f64, |s, (_, _, v)| s.max(v.abs()));
+        self.entries().find_map(|(i, j, v)| {
+            let w = self.get(j, i);
+            ((v - w).abs() > relative * scale).then_some((i, j, v, w))
+        })
+    }
+
+    /// The rows and columns `free` (ascending; `index[d]` is the position of `d` in `free`,
+    /// `None` for a dropped dof), in the same storage: `O(nnz)` for a sparse matrix.
+    pub(crate) fn principal_submatrix(&self, free: &[usize], index: &[Option<usize>]) -> Matrix {
+        match self {
+            Matrix::Dense(a) => Matrix::Dense(Mat::from_fn(free.len(), free.len(), |r, c| {
+                a[(free[r], free[c])]
+            })),
+            Matrix::Sparse(a) => {
+                let p = &a.pattern;
+                let mut row_start = Vec::with_capacity(free.len() + 1);
+                row_start.push(0);
+                let (mut col, mut values) = (Vec::new(), Vec::new());
+                for &i in free {
+                    for k in p.row_start[i]..p.row_start[i + 1] {
+                        // `index` is increasing on the free dofs: columns stay sorted.
+                        if let Some(j) = index[p.col[k]] {
+                            col.push(j);
+                            values.push(a.values[k]);
+                        }
+                    }
+                    row_start.push(col.len());
+                }
+                Matrix::Sparse(SparseMatrix {
+                    n: free.len(),
+                    pattern: SparsityPattern { row_start, col },
+                    values,
+                })
+            }
+        }
+    }
+
     /// Compressed rows of the non-zeros: the matrix itself when sparse; a dense matrix is
     /// compressed when at most a quarter of its entries are non-zero or when it is tiny
     /// (`n ≤ small`), where compressed rows beat a dense product and its set-up.

@@ -7,28 +7,34 @@
 //!   sparse pattern) and the potential energy. Shooting, continuation and stability work on
 //!   this trait alone; `examples/pendulum.rs` implements it in a few lines.
 //! - [`NonlinearElement`]: one nonlinear restoring-force law, to put into a [`Structure`]
-//!   with your own `M` and `K`.
+//!   with your own `M` and `K`: [`PolynomialSpring`] between two dofs, [`PolynomialTensor`]
+//!   for quadratic and cubic forces over a whole finite-element model (docs/method.md
+//!   eqs. (57)–(60)). [`FixedDofs`] removes clamped dofs from both (eq. (61)).
 //!
 //! The explicit form `x'' = a(x) = -M⁻¹ f_int(x)` (eq. (3)) is what explicit integrators
 //! need; it is derived from the trait by [`ExplicitForm`], not implemented by users.
 
 mod beams;
 mod block;
+mod constraints;
 mod elements;
 mod explicit;
 mod families;
 mod mass;
 mod matrix;
 mod structure;
+mod tensor;
 
 pub use beams::CantileverBeam;
 pub use block::{Block, BlockMut};
+pub use constraints::FixedDofs;
 pub use elements::PolynomialSpring;
 pub use explicit::ExplicitForm;
 pub use families::{BladedDisk, duffing, two_dof};
 pub use mass::{Mass, MassNotPositiveDefinite, MassOperator};
 pub use matrix::{Matrix, SparseMatrix, SparsityPattern};
 pub use structure::{CyclicSymmetry, ModelError, Structure};
+pub use tensor::{PolynomialTensor, TensorError};
 
 /// A conservative structure `M x'' + f_int(x) = 0` (docs/method.md eqs. (1), (3)).
 ///
@@ -92,6 +98,20 @@ pub trait NonlinearElement: Send + Sync + std::fmt::Debug {
     /// applying the elements one by one.
     fn tangent_matrix(&self, _x: &[f64], _out: &mut [f64]) -> bool {
         false
+    }
+    /// Optional, for speed when the element touches many dofs sparsely (a polynomial tensor
+    /// over a whole finite-element model, whose `m × m` [`Self::tangent_matrix`] would cost
+    /// `O(m²)`): the positions `(row, column)` (global dofs) where `∂f_e/∂x` can be non-zero,
+    /// for every `x`. When it returns a pattern, [`Self::tangent_values`] must write the
+    /// tangent there, and a [`Structure`] assembles it on that pattern instead of calling
+    /// [`Self::tangent_matrix`]. Positions may repeat (their values are summed).
+    fn tangent_pattern(&self) -> Option<Vec<(usize, usize)>> {
+        None
+    }
+    /// Writes `∂f_e/∂x(x)` at the positions of [`Self::tangent_pattern`] (same order), and
+    /// must be the whole tangent. Called only when the pattern is given.
+    fn tangent_values(&self, _x: &[f64], _out: &mut [f64]) {
+        unimplemented!("tangent_values is required when tangent_pattern returns a pattern")
     }
     /// The element's potential energy `V_e(x)`.
     fn potential(&self, x: &[f64]) -> f64;

@@ -108,17 +108,28 @@ pub struct Structure {
 /// system: cheaper than a dense product and its set-up).
 const SMALL_DENSE: usize = 8;
 
-/// `K_t(x) = K + Σ ∂f_e/∂x` on a fixed pattern: `K`'s joined with the elements' dofs, the
-/// constant part, and where each element's local tangent entries go.
+/// `K_t(x) = K + Σ ∂f_e/∂x` on a fixed pattern: `K`'s joined with the elements' tangent
+/// positions, the constant part, and where each element's tangent entries go.
 #[derive(Debug)]
 struct TangentAssembly {
     pattern: SparsityPattern,
     /// `K` on the pattern (explicit zeros where only elements contribute).
     base: Vec<f64>,
-    /// Per element: offset into `slots` and its number of dofs `m`.
-    elements: Vec<(usize, usize)>,
-    /// Per local entry `(a, b)` of an element (column-major): its position in the values.
+    /// Per element: offset into `slots`, its number of tangent entries, and how it writes
+    /// them (its dense local matrix, or values on its own sparse pattern).
+    elements: Vec<(usize, usize, LocalTangent)>,
+    /// Per local tangent entry of an element: its position in the values.
     slots: Vec<usize>,
+}
+
+/// How an element gives its tangent to the assembly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum LocalTangent {
+    /// [`NonlinearElement::tangent_matrix`]: `m × m` column-major over `dofs_used` (springs).
+    Dense,
+    /// [`NonlinearElement::tangent_values`] on its [`NonlinearElement::tangent_pattern`]
+    /// (elements that touch many dofs sparsely: the polynomial tensor).
+    Sparse,
 }
 
 impl TangentAssembly {
@@ -126,22 +137,29 @@ impl TangentAssembly {
         let n = stiffness.dimension();
         let zero = vec![0.0; n];
         let mut probe = Vec::new();
-        let mut dofs = Vec::with_capacity(elements.len());
+        // Each element's tangent positions in the order it writes its values.
+        let mut locals: Vec<(Vec<(usize, usize)>, LocalTangent)> =
+            Vec::with_capacity(elements.len());
         for e in elements {
+            if let Some(entries) = e.tangent_pattern() {
+                locals.push((entries, LocalTangent::Sparse));
+                continue;
+            }
             let d = e.dofs_used();
             probe.resize(d.len() * d.len(), 0.0);
             if !e.tangent_matrix(&zero, &mut probe) {
                 return None;
             }
-            dofs.push(d);
+            let entries = d.iter().flat_map(|&b| d.iter().map(move |&a| (a, b)));
+            locals.push((entries.collect(), LocalTangent::Dense));
         }
         let k = stiffness.pattern();
         let mut rows: Vec<Vec<usize>> = (0..n)
             .map(|i| k.col[k.row_start[i]..k.row_start[i + 1]].to_vec())
             .collect();
-        for d in &dofs {
-            for &a in d {
-                rows[a].extend_from_slice(d);
+        for (entries, _) in &locals {
+            for &(a, b) in entries {
+                rows[a].push(b);
             }
         }
         let mut row_start = vec![0];
@@ -161,13 +179,11 @@ impl TangentAssembly {
             }
         }
         let mut slots = Vec::new();
-        let mut offsets = Vec::with_capacity(dofs.len());
-        for d in &dofs {
-            offsets.push((slots.len(), d.len()));
-            for &b in d {
-                for &a in d {
-                    slots.push(pattern.position(a, b).expect("in the pattern"));
-                }
+        let mut offsets = Vec::with_capacity(locals.len());
+        for (entries, kind) in &locals {
+            offsets.push((slots.len(), entries.len(), *kind));
+            for &(a, b) in entries {
+                slots.push(pattern.position(a, b).expect("in the pattern"));
             }
         }
         Some(Self {
@@ -198,14 +214,7 @@ impl Structure {
             return Err(ModelError::Empty);
         }
         for (name, m) in [("mass", &mass), ("stiffness", &stiffness)] {
-            if m.nrows() != n || m.ncols() != n {
-                return Err(ModelError::WrongSize {
-                    name,
-                    rows: m.nrows(),
-                    cols: m.ncols(),
-                    expected: n,
-                });
-            }
+            check_size(name, m, n)?;
             check_finite_symmetric(name, m)?;
         }
         for (index, e) in elements.iter().enumerate() {
@@ -273,35 +282,31 @@ impl Structure {
     }
 }
 
-fn check_finite_symmetric(name: &'static str, m: &Matrix) -> Result<(), ModelError> {
-    let mut scale: f64 = 0.0;
-    for (i, j, v) in m.entries() {
-        if !v.is_finite() {
-            return Err(ModelError::NotFinite {
-                name,
-                row: i,
-                col: j,
-            });
-        }
-        scale = scale.max(v.abs());
-    }
-    for (i, j, v) in m.entries() {
-        if i < j && (v - m.get(j, i)).abs() > 1e-10 * scale {
-            return Err(ModelError::NotSymmetric {
-                name,
-                row: i,
-                col: j,
-            });
-        }
-        if i > j && m.get(j, i) == 0.0 && v.abs() > 1e-10 * scale {
-            return Err(ModelError::NotSymmetric {
-                name,
-                row: j,
-                col: i,
-            });
-        }
+/// `m` must be `n × n`.
+pub(super) fn check_size(name: &'static str, m: &Matrix, n: usize) -> Result<(), ModelError> {
+    if m.nrows() != n || m.ncols() != n {
+        return Err(ModelError::WrongSize {
+            name,
+            rows: m.nrows(),
+            cols: m.ncols(),
+            expected: n,
+        });
     }
     Ok(())
+}
+
+fn check_finite_symmetric(name: &'static str, m: &Matrix) -> Result<(), ModelError> {
+    if let Some((row, col, _)) = m.entries().find(|e| !e.2.is_finite()) {
+        return Err(ModelError::NotFinite { name, row, col });
+    }
+    match m.asymmetry(1e-10) {
+        Some((i, j, _, _)) => Err(ModelError::NotSymmetric {
+            name,
+            row: i.min(j),
+            col: i.max(j),
+        }),
+        None => Ok(()),
+    }
 }
 
 impl MechanicalSystem for Structure {
@@ -344,10 +349,15 @@ impl MechanicalSystem for Structure {
         let t = self.tangent.as_ref().expect("called only with a pattern");
         values.copy_from_slice(&t.base);
         LOCAL.with_borrow_mut(|local| {
-            for (e, &(offset, m)) in self.elements.iter().zip(&t.elements) {
-                local.resize(m * m, 0.0);
-                e.tangent_matrix(x, local);
-                for (&position, &v) in t.slots[offset..offset + m * m].iter().zip(&*local) {
+            for (e, &(offset, len, kind)) in self.elements.iter().zip(&t.elements) {
+                local.resize(len, 0.0);
+                match kind {
+                    LocalTangent::Dense => {
+                        e.tangent_matrix(x, local);
+                    }
+                    LocalTangent::Sparse => e.tangent_values(x, local),
+                }
+                for (&position, &v) in t.slots[offset..offset + len].iter().zip(&*local) {
                     values[position] += v;
                 }
             }

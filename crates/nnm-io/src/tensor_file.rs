@@ -1,0 +1,103 @@
+//! Text files of polynomial force terms (the `tensor` element of job files, README "Job
+//! files"; docs/method.md eq. (57)).
+//!
+//! One term per line: `i j k c` (quadratic, `f_i += c x_j x_k`) or `i j k l c` (cubic,
+//! `f_i += c x_j x_k x_l`), indices 1-based like Matrix Market files, whitespace-separated.
+//! Lines whose first non-blank character is `%` are comments; blank lines are skipped. Values
+//! are read as in Matrix Market real files (a Fortran `D` exponent is accepted; NaN and
+//! infinities are not).
+
+use std::path::Path;
+
+use crate::job::io_reason;
+use crate::matrix_market::{parse_index, parse_value};
+
+/// The terms `(i, [t_1 … t_N], c)` of a file of `N + 2` columns, 0-based, checked against a
+/// model of `dofs` dofs. Errors are one line: `line L: ...` (the caller names the file).
+pub fn read_terms<const N: usize>(
+    path: &Path,
+    dofs: usize,
+) -> Result<Vec<(usize, [usize; N], f64)>, String> {
+    let text =
+        std::fs::read_to_string(path).map_err(|e| format!("cannot read: {}", io_reason(&e)))?;
+    parse_terms(&text, dofs)
+}
+
+/// [`read_terms`] on the file's text.
+pub fn parse_terms<const N: usize>(
+    text: &str,
+    dofs: usize,
+) -> Result<Vec<(usize, [usize; N], f64)>, String> {
+    let layout = if N == 2 { "i j k c" } else { "i j k l c" };
+    let mut terms = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let number = k + 1;
+        let trimmed = line.trim_start();
+        if trimmed.is_empty() || trimmed.starts_with('%') {
+            continue;
+        }
+        let tokens: Vec<&str> = line.split_whitespace().collect();
+        if tokens.len() != N + 2 {
+            return Err(format!(
+                "line {number}: expected `{layout}` ({} numbers), found {}",
+                N + 2,
+                tokens.len()
+            ));
+        }
+        // `i` then the N trailing indices (N ≤ 3).
+        let mut index = [0; 4];
+        for (slot, token) in index.iter_mut().zip(&tokens[..=N]) {
+            let d = parse_index(token, number).map_err(|e| e.to_string())?;
+            if d == 0 || d > dofs {
+                return Err(format!(
+                    "line {number}: index {d} out of range for a model of {dofs} dofs (indices are 1-based)"
+                ));
+            }
+            *slot = d - 1;
+        }
+        let c = parse_value(tokens[N + 1], false, number).map_err(|e| e.to_string())?;
+        let mut trailing = [0; N];
+        trailing.copy_from_slice(&index[1..=N]);
+        terms.push((index[0], trailing, c));
+    }
+    Ok(terms)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn terms_with_comments_and_blank_lines() {
+        let text = "% f_i += c x_j x_k\n\n  % indented\n1 2 3 0.5\r\n3 3 3 -2D+00\n";
+        let terms = parse_terms::<2>(text, 3).unwrap();
+        assert_eq!(terms, vec![(0, [1, 2], 0.5), (2, [2, 2], -2.0)]);
+        let terms = parse_terms::<3>("2 1 1 1 4e-3\n", 2).unwrap();
+        assert_eq!(terms, vec![(1, [0, 0, 0], 4e-3)]);
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let cases: [(&str, &str); 6] = [
+            ("1 2 3\n", "line 1: expected `i j k c` (4 numbers), found 3"),
+            (
+                "%\n1 2 3 4 5\n",
+                "line 2: expected `i j k c` (4 numbers), found 5",
+            ),
+            (
+                "\n\n1 4 1 1.0\n",
+                "line 3: index 4 out of range for a model of 3 dofs",
+            ),
+            ("0 1 1 1.0\n", "line 1: index 0 out of range"),
+            ("1 1 x 1.0\n", "line 1: cannot parse `x` as a 1-based index"),
+            ("1 1 1 nan\n", "line 1: value `nan` is not finite"),
+        ];
+        for (text, expected) in cases {
+            let e = parse_terms::<2>(text, 3).unwrap_err();
+            assert!(e.starts_with(expected), "{text:?}: {e}");
+            assert!(!e.contains('\n'));
+        }
+        let e = read_terms::<3>(Path::new("/nonexistent/f3.txt"), 3).unwrap_err();
+        assert_eq!(e, "cannot read: No such file or directory");
+    }
+}

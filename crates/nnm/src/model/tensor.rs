@@ -1,0 +1,608 @@
+//! Polynomial internal forces given as sparse tensors: the quadratic and cubic terms of a
+//! geometrically nonlinear finite-element model reduced or exported term by term
+//! (docs/method.md eqs. (57)–(60)).
+
+use std::collections::BTreeMap;
+
+use super::{Block, BlockMut, FixedDofs, NonlinearElement};
+
+/// `f_i(x) = Σ c x_j x_k` over the quadratic terms `(i, j, k, c)` plus `Σ c x_j x_k x_l` over
+/// the cubic terms `(i, j, k, l, c)` (0-based dofs; docs/method.md eq. (57)).
+///
+/// Built only when the force derives from a potential (eq. (59): the coefficients averaged
+/// over the trailing indices form a fully symmetric tensor), so that
+/// `V = ⅓ xᵀ f₂(x) + ¼ xᵀ f₃(x)` (eq. (58), Euler's theorem for homogeneous forms) is its
+/// potential and the energy the continuation plots is conserved. Terms are kept as given
+/// (repeated positions add up); force, tangent and potential cost `O(terms)`, and the tangent
+/// is given on the element's own sparse pattern (eq. (60)), never as a dense block over the
+/// dofs it touches.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolynomialTensor {
+    dofs: usize,
+    quadratic: Terms<2>,
+    cubic: Terms<3>,
+    /// Tangent positions `(i, t_p)` of every term, quadratic then cubic (eq. (60)).
+    pattern: Vec<(usize, usize)>,
+}
+
+/// Terms `f_i += c Π_p x_{t_p}` of one degree `N`.
+#[derive(Debug, Clone, PartialEq)]
+struct Terms<const N: usize> {
+    /// `(i, [t_1 … t_N], c)`.
+    terms: Vec<(usize, [usize; N], f64)>,
+}
+
+/// Why a polynomial tensor is refused. Indices are 0-based in the library;
+/// [`TensorError::describe`] writes them in another base (job files count from 1).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TensorError {
+    /// A term names a dof the model does not have.
+    #[error("{}", self.describe(0))]
+    OutOfRange {
+        /// `"quadratic"` or `"cubic"`.
+        degree: &'static str,
+        /// The term's position among the terms of its degree (0-based).
+        term: usize,
+        /// The offending dof.
+        dof: usize,
+        /// The model's number of dofs.
+        dofs: usize,
+    },
+    /// A coefficient is NaN or infinite.
+    #[error("{}", self.describe(0))]
+    NotFinite {
+        /// `"quadratic"` or `"cubic"`.
+        degree: &'static str,
+        /// The term's position among the terms of its degree (0-based).
+        term: usize,
+        /// The coefficient.
+        value: f64,
+    },
+    /// The force is not a gradient (eq. (59) fails): two averaged coefficients that must be
+    /// equal differ.
+    #[error("{}", self.describe(0))]
+    NotGradient {
+        /// `"quadratic"` or `"cubic"`.
+        degree: &'static str,
+        /// `[i, j, k]` (or `[i, j, k, l]`) of the first averaged coefficient.
+        first: Vec<usize>,
+        /// Its value `S_ijk…`.
+        first_value: f64,
+        /// The index permutation whose coefficient should equal it.
+        second: Vec<usize>,
+        /// Its value.
+        second_value: f64,
+    },
+}
+
+impl TensorError {
+    /// The message with indices counted from `base` (0 in the library, 1 in job files).
+    pub fn describe(&self, base: usize) -> String {
+        let list = |v: &[usize]| {
+            v.iter()
+                .map(|d| (d + base).to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        match self {
+            TensorError::OutOfRange {
+                degree,
+                term,
+                dof,
+                dofs,
+            } => format!(
+                "{degree} term {} uses dof {}, but the model has {dofs} dofs ({base}-based)",
+                term + base,
+                dof + base
+            ),
+            TensorError::NotFinite {
+                degree,
+                term,
+                value,
+            } => format!(
+                "{degree} term {} has a non-finite coefficient {value}",
+                term + base
+            ),
+            TensorError::NotGradient {
+                degree,
+                first,
+                first_value,
+                second,
+                second_value,
+            } => format!(
+                "{degree} terms are not the gradient of a potential: the coefficients averaged over \
+                 the trailing indices must be symmetric in all indices, but S({}) = {first_value:e} \
+                 and S({}) = {second_value:e} ({base}-based)",
+                list(first),
+                list(second)
+            ),
+        }
+    }
+}
+
+/// Relative tolerance of the gradient check (eq. (59)), on the largest `|c|` of the degree:
+/// coefficients computed in floating point by a finite-element code carry round-off.
+const GRADIENT_TOLERANCE: f64 = 1e-10;
+
+impl<const N: usize> Terms<N> {
+    const DEGREE: &'static str = if N == 2 { "quadratic" } else { "cubic" };
+
+    /// Validates range and finiteness, then the gradient condition (eq. (59)).
+    fn new(dofs: usize, terms: Vec<(usize, [usize; N], f64)>) -> Result<Self, TensorError> {
+        let degree = Self::DEGREE;
+        for (term, &(i, t, c)) in terms.iter().enumerate() {
+            if let Some(&dof) = std::iter::once(&i).chain(&t).find(|&&d| d >= dofs) {
+                return Err(TensorError::OutOfRange {
+                    degree,
+                    term,
+                    dof,
+                    dofs,
+                });
+            }
+            if !c.is_finite() {
+                return Err(TensorError::NotFinite {
+                    degree,
+                    term,
+                    value: c,
+                });
+            }
+        }
+        let terms = Self { terms };
+        terms.check_gradient()?;
+        Ok(terms)
+    }
+
+    /// Eq. (59): `S_{i t}` — the coefficients averaged over the orderings of the trailing
+    /// indices `t` — must not change when `i` is swapped with any trailing index. Each term
+    /// adds `c / (number of distinct orderings of t)` to the key `(i, sorted t)`; then every
+    /// key is compared with the keys of the same index multiset led by each other index (a
+    /// missing key is a zero). `O(terms log terms)`.
+    fn check_gradient(&self) -> Result<(), TensorError> {
+        let mut averaged: BTreeMap<(usize, [usize; N]), f64> = BTreeMap::new();
+        let mut scale: f64 = 0.0;
+        for &(i, mut t, c) in &self.terms {
+            t.sort_unstable();
+            *averaged.entry((i, t)).or_insert(0.0) += c / orderings(&t);
+            scale = scale.max(c.abs());
+        }
+        for (&(i, t), &value) in &averaged {
+            for p in 0..N {
+                if t[p] == i || (p > 0 && t[p] == t[p - 1]) {
+                    continue;
+                }
+                // Swap i with t[p]: lead index t[p], trailing t with t[p] replaced by i.
+                let mut swapped = t;
+                swapped[p] = i;
+                swapped.sort_unstable();
+                let other = averaged.get(&(t[p], swapped)).copied().unwrap_or(0.0);
+                if (value - other).abs() > GRADIENT_TOLERANCE * scale {
+                    return Err(TensorError::NotGradient {
+                        degree: Self::DEGREE,
+                        first: std::iter::once(i).chain(t).collect(),
+                        first_value: value,
+                        second: std::iter::once(t[p]).chain(swapped).collect(),
+                        second_value: other,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The terms without the fixed dofs (docs/method.md eq. (61)): a term that contains a
+    /// fixed dof among its factors vanishes (`x = 0` there), a term on a fixed dof's row is
+    /// the support's reaction, not a force on the reduced model.
+    fn reduced(&self, fixed: &FixedDofs) -> Self {
+        let terms = self
+            .terms
+            .iter()
+            .filter_map(|&(i, t, c)| {
+                let i = fixed.reduced_index(i)?;
+                let mut r = [0; N];
+                for (r, &d) in r.iter_mut().zip(&t) {
+                    *r = fixed.reduced_index(d)?;
+                }
+                Some((i, r, c))
+            })
+            .collect();
+        Self { terms }
+    }
+
+    /// `Π_{q ≠ p} x_{t_q}`: the derivative of the term's monomial by its `p`-th factor.
+    #[inline]
+    fn others(t: &[usize; N], p: usize, x: &[f64]) -> f64 {
+        (0..N).filter(|&q| q != p).map(|q| x[t[q]]).product()
+    }
+
+    fn add_force(&self, x: &[f64], f: &mut [f64]) {
+        for &(i, t, c) in &self.terms {
+            f[i] += c * t.iter().map(|&d| x[d]).product::<f64>();
+        }
+    }
+
+    /// `xᵀ f_N(x)`, i.e. `(N + 1) V_N` (eq. (58)).
+    fn x_dot_force(&self, x: &[f64]) -> f64 {
+        self.terms
+            .iter()
+            .map(|&(i, t, c)| c * x[i] * t.iter().map(|&d| x[d]).product::<f64>())
+            .sum()
+    }
+
+    fn add_tangent_product(&self, x: &[f64], dx: &[f64], out: &mut [f64]) {
+        for &(i, t, c) in &self.terms {
+            let d: f64 = (0..N).map(|p| dx[t[p]] * Self::others(&t, p, x)).sum();
+            out[i] += c * d;
+        }
+    }
+
+    /// Tangent positions `(i, t_p)` of every term, in the order of [`Self::tangent_values`].
+    fn pattern(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.terms
+            .iter()
+            .flat_map(|&(i, t, _)| t.into_iter().map(move |d| (i, d)))
+    }
+
+    /// `∂(c Π x_t)/∂x_{t_p} = c Π_{q≠p} x_{t_q}` at each position of [`Self::pattern`].
+    fn tangent_values(&self, x: &[f64], out: &mut [f64]) {
+        for (&(_, t, c), o) in self.terms.iter().zip(out.chunks_exact_mut(N)) {
+            for (p, o) in o.iter_mut().enumerate() {
+                *o = c * Self::others(&t, p, x);
+            }
+        }
+    }
+}
+
+/// Number of distinct orderings of a sorted index list (`N! / Π multiplicity!`).
+fn orderings(t: &[usize]) -> f64 {
+    let mut count = 1.0;
+    let mut denominator = 1.0;
+    let mut run = 1.0;
+    for (p, w) in t.iter().enumerate() {
+        count *= (p + 1) as f64;
+        if p > 0 && t[p - 1] == *w {
+            run += 1.0;
+            denominator *= run;
+        } else {
+            run = 1.0;
+        }
+    }
+    count / denominator
+}
+
+impl PolynomialTensor {
+    /// The force of quadratic terms `(i, j, k, c)`: `f_i += c x_j x_k` and cubic terms
+    /// `(i, j, k, l, c)`: `f_i += c x_j x_k x_l` on a model of `dofs` dofs (0-based indices).
+    /// Refused: an index `≥ dofs`, a non-finite coefficient, or a force that is not a
+    /// gradient (eq. (59), to `1e-10` of the degree's largest `|c|`).
+    pub fn new(
+        dofs: usize,
+        quadratic: Vec<(usize, usize, usize, f64)>,
+        cubic: Vec<(usize, usize, usize, usize, f64)>,
+    ) -> Result<Self, TensorError> {
+        let quadratic = quadratic
+            .into_iter()
+            .map(|(i, j, k, c)| (i, [j, k], c))
+            .collect();
+        let cubic = cubic
+            .into_iter()
+            .map(|(i, j, k, l, c)| (i, [j, k, l], c))
+            .collect();
+        Ok(Self::from_terms(
+            dofs,
+            Terms::new(dofs, quadratic)?,
+            Terms::new(dofs, cubic)?,
+        ))
+    }
+
+    fn from_terms(dofs: usize, quadratic: Terms<2>, cubic: Terms<3>) -> Self {
+        let pattern = quadratic.pattern().chain(cubic.pattern()).collect();
+        Self {
+            dofs,
+            quadratic,
+            cubic,
+            pattern,
+        }
+    }
+
+    /// Number of dofs of the model the tensor was built for.
+    pub fn dofs(&self) -> usize {
+        self.dofs
+    }
+
+    /// Number of quadratic and of cubic terms.
+    pub fn terms(&self) -> (usize, usize) {
+        (self.quadratic.terms.len(), self.cubic.terms.len())
+    }
+
+    /// The same force on the model with `fixed`'s dofs held at zero and removed
+    /// (docs/method.md eq. (61)), in the reduced numbering. It is again a gradient: the
+    /// potential restricted to the free dofs.
+    pub fn reduced(&self, fixed: &FixedDofs) -> Self {
+        Self::from_terms(
+            fixed.free_dofs().len(),
+            self.quadratic.reduced(fixed),
+            self.cubic.reduced(fixed),
+        )
+    }
+}
+
+impl NonlinearElement for PolynomialTensor {
+    fn add_force(&self, x: &[f64], f: &mut [f64]) {
+        self.quadratic.add_force(x, f);
+        self.cubic.add_force(x, f);
+    }
+
+    fn add_tangent_product(&self, x: &[f64], dx: Block<'_>, out: &mut BlockMut<'_>) {
+        for c in 0..dx.cols {
+            let (d, o) = (dx.col(c), out.col_mut(c));
+            self.quadratic.add_tangent_product(x, d, o);
+            self.cubic.add_tangent_product(x, d, o);
+        }
+    }
+
+    fn tangent_pattern(&self) -> Option<Vec<(usize, usize)>> {
+        Some(self.pattern.clone())
+    }
+
+    fn tangent_values(&self, x: &[f64], out: &mut [f64]) {
+        let split = 2 * self.quadratic.terms.len();
+        self.quadratic.tangent_values(x, &mut out[..split]);
+        self.cubic.tangent_values(x, &mut out[split..]);
+    }
+
+    fn potential(&self, x: &[f64]) -> f64 {
+        self.quadratic.x_dot_force(x) / 3.0 + self.cubic.x_dot_force(x) / 4.0
+    }
+
+    fn dofs_used(&self) -> Vec<usize> {
+        let mut used: Vec<usize> = self.pattern.iter().flat_map(|&(i, j)| [i, j]).collect();
+        used.sort_unstable();
+        used.dedup();
+        used
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Matrix, MechanicalSystem, SparseMatrix, Structure};
+
+    /// Deterministic pseudo-random numbers in `[-1, 1)` (xorshift; no test dependency).
+    struct Random(u64);
+    impl Random {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        }
+        fn index(&mut self, n: usize) -> usize {
+            ((self.next() + 1.0) * 0.5 * n as f64) as usize % n
+        }
+    }
+
+    /// The gradient of random monomials `a Π x_{m_q}` (repeated factors included): for each
+    /// factor `p`, the term `(m_p; the others, a)`, with the trailing indices in a random order
+    /// and the coefficient sometimes split over two orderings. A gradient by construction.
+    fn random_gradient(n: usize, monomials: usize, rng: &mut Random) -> PolynomialTensor {
+        let (mut quadratic, mut cubic) = (Vec::new(), Vec::new());
+        for m in 0..monomials {
+            let a = rng.next() + 2.0 * rng.next().signum();
+            let degree = 3 + m % 2;
+            let factors: Vec<usize> = (0..degree).map(|_| rng.index(n)).collect();
+            for p in 0..degree {
+                let mut others: Vec<usize> = (0..degree)
+                    .filter(|&q| q != p)
+                    .map(|q| factors[q])
+                    .collect();
+                if rng.next() > 0.0 {
+                    others.reverse();
+                }
+                let share = if rng.next() > 0.0 { 0.3 } else { 1.0 };
+                for (c, o) in [
+                    (share * a, others.clone()),
+                    ((1.0 - share) * a, {
+                        others.rotate_left(1);
+                        others
+                    }),
+                ] {
+                    if c == 0.0 {
+                        continue;
+                    }
+                    match o[..] {
+                        [j, k] => quadratic.push((factors[p], j, k, c)),
+                        [j, k, l] => cubic.push((factors[p], j, k, l, c)),
+                        _ => unreachable!(),
+                    }
+                }
+            }
+        }
+        PolynomialTensor::new(n, quadratic, cubic).expect("a gradient by construction")
+    }
+
+    fn force(e: &dyn NonlinearElement, x: &[f64]) -> Vec<f64> {
+        let mut f = vec![0.0; x.len()];
+        e.add_force(x, &mut f);
+        f
+    }
+
+    /// Force = gradient of the potential (eq. (58)) and tangent = Jacobian of the force
+    /// (eq. (60)), by central differences at random states; the tangent on the element's own
+    /// pattern and its product with a block agree with each other.
+    #[test]
+    fn force_and_tangent_are_derivatives() {
+        let mut rng = Random(0x9e37_79b9_7f4a_7c15);
+        let n = 6;
+        for trial in 0..5 {
+            let e = random_gradient(n, 8, &mut rng);
+            assert!(e.terms().0 > 0 && e.terms().1 > 0);
+            let x: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let f = force(&e, &x);
+            let h = 1e-5;
+            // Dense tangent from the pattern values.
+            let pattern = e.tangent_pattern().unwrap();
+            let mut values = vec![f64::NAN; pattern.len()];
+            e.tangent_values(&x, &mut values);
+            let mut tangent = vec![0.0; n * n];
+            for (&(i, j), v) in pattern.iter().zip(&values) {
+                tangent[j * n + i] += v;
+            }
+            let eye: Vec<f64> = (0..n * n)
+                .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
+                .collect();
+            let mut product = vec![0.0; n * n];
+            e.add_tangent_product(
+                &x,
+                Block::new(&eye, n, n, n),
+                &mut BlockMut::new(&mut product, n, n, n),
+            );
+            let scale = f.iter().fold(1.0_f64, |s, v| s.max(v.abs()));
+            for m in 0..n {
+                let (mut xp, mut xm) = (x.clone(), x.clone());
+                xp[m] += h;
+                xm[m] -= h;
+                let dv = (e.potential(&xp) - e.potential(&xm)) / (2.0 * h);
+                assert!(
+                    (dv - f[m]).abs() < 1e-8 * scale,
+                    "trial {trial}, dof {m}: dV = {dv}, f = {}",
+                    f[m]
+                );
+                let (fp, fm) = (force(&e, &xp), force(&e, &xm));
+                for i in 0..n {
+                    let fd = (fp[i] - fm[i]) / (2.0 * h);
+                    let t = tangent[m * n + i];
+                    assert!((fd - t).abs() < 1e-8 * scale, "trial {trial}: {fd} vs {t}");
+                    assert!((product[m * n + i] - t).abs() < 1e-13 * scale);
+                }
+            }
+            // The tangent of a gradient is symmetric.
+            for i in 0..n {
+                for j in 0..n {
+                    assert!((tangent[j * n + i] - tangent[i * n + j]).abs() < 1e-13 * scale);
+                }
+            }
+        }
+    }
+
+    /// `f_0 = x_1²` alone is not a gradient (`f_1 = 2 x_0 x_1` is missing); the error names
+    /// the two averaged coefficients. Completed, it is accepted; a 1e-14 relative perturbation
+    /// is round-off and accepted, a 1e-6 one is not.
+    #[test]
+    fn non_gradient_tensors_are_refused() {
+        let e = PolynomialTensor::new(3, vec![(0, 1, 1, 1.0)], vec![]).unwrap_err();
+        assert_eq!(
+            e,
+            TensorError::NotGradient {
+                degree: "quadratic",
+                first: vec![0, 1, 1],
+                first_value: 1.0,
+                second: vec![1, 0, 1],
+                second_value: 0.0,
+            }
+        );
+        let message = e.describe(1);
+        assert!(!message.contains('\n'));
+        assert!(
+            message.contains("S(1, 2, 2) = 1e0 and S(2, 1, 2) = 0e0 (1-based)"),
+            "{message}"
+        );
+        // f_1 = 2 x_0 x_1 given as two orderings.
+        for (c, ok) in [(1.0, true), (1.0 + 1e-14, true), (1.0 + 1e-6, false)] {
+            let t = PolynomialTensor::new(
+                3,
+                vec![(0, 1, 1, 1.0), (1, 0, 1, c), (1, 1, 0, 1.0)],
+                vec![],
+            );
+            assert_eq!(t.is_ok(), ok, "{c}: {t:?}");
+        }
+        // Cubic: f_0 = x_1 x_2 x_2 needs f_1 = x_0 x_2² and f_2 = 2 x_0 x_1 x_2.
+        let partial = vec![(0, 1, 2, 2, 1.0), (1, 0, 2, 2, 1.0)];
+        let e = PolynomialTensor::new(3, vec![], partial.clone()).unwrap_err();
+        assert!(
+            matches!(&e, TensorError::NotGradient { degree: "cubic", second, .. } if second[0] == 2),
+            "{e}"
+        );
+        let mut full = partial;
+        full.push((2, 0, 1, 2, 1.0));
+        full.push((2, 2, 1, 0, 1.0));
+        assert!(PolynomialTensor::new(3, vec![], full).is_ok());
+    }
+
+    #[test]
+    fn out_of_range_and_non_finite_terms_are_refused() {
+        assert_eq!(
+            PolynomialTensor::new(2, vec![(0, 0, 2, 1.0)], vec![]).unwrap_err(),
+            TensorError::OutOfRange {
+                degree: "quadratic",
+                term: 0,
+                dof: 2,
+                dofs: 2
+            }
+        );
+        let e = PolynomialTensor::new(2, vec![], vec![(0, 0, 0, 0, 1.0), (1, 1, 1, 1, f64::NAN)])
+            .unwrap_err();
+        assert!(
+            matches!(
+                e,
+                TensorError::NotFinite {
+                    degree: "cubic",
+                    term: 1,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let e = PolynomialTensor::new(2, vec![], vec![(5, 0, 0, 0, f64::INFINITY)]).unwrap_err();
+        assert!(matches!(e, TensorError::OutOfRange { dof: 5, .. }), "{e}");
+    }
+
+    /// A `Structure` with a sparse `K` and a tensor keeps an assembled tangent pattern
+    /// (the implicit integrator's sparse LU needs it), whose values are `K + ∂f/∂x`.
+    #[test]
+    fn structure_assembles_the_tensor_tangent_on_its_pattern() {
+        let mut rng = Random(42);
+        let n = 7;
+        let chain: Vec<(usize, usize, f64)> = (0..n)
+            .flat_map(|i| {
+                let mut t = vec![(i, i, 2.0)];
+                if i + 1 < n {
+                    t.extend([(i, i + 1, -1.0), (i + 1, i, -1.0)]);
+                }
+                t
+            })
+            .collect();
+        let k = SparseMatrix::from_triplets(n, &chain).unwrap();
+        let tensor = random_gradient(n, 6, &mut rng);
+        let s = Structure::new(
+            Matrix::identity(n),
+            k,
+            vec![
+                Box::new(tensor),
+                Box::new(crate::model::PolynomialSpring::cubic(0, Some(3), 0.4)),
+            ],
+        )
+        .unwrap();
+        let pattern = s.tangent_pattern().expect("an assembled pattern").clone();
+        let x: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+        let mut values = vec![f64::NAN; pattern.nonzeros()];
+        s.tangent_values(&x, &mut values);
+        let eye = Matrix::identity(n).to_dense();
+        let eye: Vec<f64> = (0..n * n).map(|k| eye[(k % n, k / n)]).collect();
+        let mut dense = vec![0.0; n * n];
+        s.tangent_stiffness(
+            &x,
+            Block::new(&eye, n, n, n),
+            BlockMut::new(&mut dense, n, n, n),
+        );
+        for i in 0..n {
+            for j in 0..n {
+                let assembled = pattern.position(i, j).map_or(0.0, |p| values[p]);
+                let expected = dense[j * n + i];
+                assert!(
+                    (assembled - expected).abs() < 1e-13 * (1.0 + expected.abs()),
+                    "({i}, {j})"
+                );
+            }
+        }
+    }
+}
