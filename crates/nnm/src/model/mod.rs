@@ -20,6 +20,7 @@ mod families;
 mod mass;
 mod matrix;
 mod structure;
+mod von_karman;
 
 pub use beams::CantileverBeam;
 pub use block::{Block, BlockMut};
@@ -29,6 +30,7 @@ pub use families::{BladedDisk, duffing, two_dof};
 pub use mass::{Mass, MassNotPositiveDefinite, MassOperator};
 pub use matrix::{Matrix, SparseMatrix, SparsityPattern};
 pub use structure::{CyclicSymmetry, ModelError, Structure};
+pub use von_karman::VonKarmanBeam;
 
 /// A conservative structure `M x'' + f_int(x) = 0` (docs/method.md eqs. (1), (3)).
 ///
