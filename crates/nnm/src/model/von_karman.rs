@@ -65,8 +65,8 @@ impl Default for VonKarmanBeam {
 
 /// Gauss–Legendre points on `[0, 1]` and their weights (summing to 1). Five points integrate
 /// polynomials up to degree 9 exactly; the highest degree in the element is 8 (`w'` is
-/// quadratic in `x`, so `w'⁴` in the potential and `w'³ N_w'`, `w'² N_w' N_w'ᵀ` in the force
-/// and tangent have degree 8; the mass `N_w N_wᵀ` has degree 6), so every integral below is
+/// quadratic in `x`, so `w'⁴` in the potential and `w'³ N_w'`, `w'² N_w'ᵀ N_w'` in the force
+/// and tangent have degree 8; the mass `N_wᵀ N_w` has degree 6), so every integral below is
 /// exact up to round-off (docs/method.md §12, "quadrature").
 fn gauss_legendre_5() -> [(f64, f64); 5] {
     let (a, b) = (
@@ -195,7 +195,7 @@ impl VonKarmanElement {
     }
 
     /// The local nonlinear force `∂V_e/∂q` (eq. (VK3)):
-    /// `E A ∫ [½ s² N_u' + (u' s + ½ s³) N_w'] dx`.
+    /// `E A ∫ [½ s² N_u'ᵀ + (u' s + ½ s³) N_w'ᵀ] dx` (`N` are row vectors: `s = N_w' q`).
     fn local_force(&self, q: &[f64; 6]) -> [f64; 6] {
         let t = &*self.table;
         let mut f = [0.0; 6];
@@ -218,12 +218,12 @@ impl VonKarmanElement {
     }
 
     /// The local nonlinear tangent `∂²V_e/∂q²` (eq. (VK4)), symmetric, row-major 6 × 6:
-    /// `E A ∫ [s (N_u' N_w'ᵀ + N_w' N_u'ᵀ) + (u' + 3/2 s²) N_w' N_w'ᵀ] dx`.
+    /// `E A ∫ [s (N_u'ᵀ N_w' + N_w'ᵀ N_u') + (u' + 3/2 s²) N_w'ᵀ N_w'] dx`.
     fn local_tangent(&self, q: &[f64; 6]) -> [[f64; 6]; 6] {
         let t = &*self.table;
         let mut k = [[0.0; 6]; 6];
         let (du, points) = self.strains(q);
-        // ∫ s N_w' (the axial–transverse coupling) and ∫ (u' + 3/2 s²) N_w' N_w'ᵀ.
+        // ∫ s N_w' (the axial–transverse coupling) and ∫ (u' + 3/2 s²) N_w'ᵀ N_w'.
         let mut coupling = [0.0; 4];
         for (weight, s, g) in points {
             let c = weight * (du + 1.5 * s * s);
