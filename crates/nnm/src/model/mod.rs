@@ -24,6 +24,7 @@ mod mass;
 mod matrix;
 mod structure;
 mod tensor;
+mod von_karman;
 
 pub use beams::CantileverBeam;
 pub use block::{Block, BlockMut};
@@ -35,6 +36,7 @@ pub use mass::{Mass, MassNotPositiveDefinite, MassOperator};
 pub use matrix::{Matrix, SparseMatrix, SparsityPattern};
 pub use structure::{CyclicSymmetry, ModelError, Structure};
 pub use tensor::{PolynomialTensor, TensorError};
+pub use von_karman::VonKarmanBeam;
 
 /// A conservative structure `M x'' + f_int(x) = 0` (docs/method.md eqs. (1), (3)).
 ///
