@@ -32,7 +32,7 @@ use std::path::{Path, PathBuf};
 use nnm::Settings;
 use nnm::model::{
     BladedDisk, CantileverBeam, CyclicSymmetry, FixedDofs, Matrix, ModelError, NonlinearElement,
-    PolynomialSpring, PolynomialTensor, Structure, TensorError, duffing, two_dof,
+    PolynomialSpring, PolynomialTensor, Structure, TensorError, VonKarmanBeam, duffing, two_dof,
 };
 use nnm::modes::StandingWave;
 use serde::Deserialize;
@@ -64,7 +64,8 @@ pub enum JobError {
 #[derive(Debug)]
 pub struct Job {
     pub structure: Structure,
-    /// The model family (`"bladed-disk"`, `"duffing"`, `"two-dof"`, or `"general"`).
+    /// The model family (`"bladed-disk"`, `"duffing"`, `"two-dof"`, `"cantilever-beam"`,
+    /// `"von-karman-beam"`, or `"general"`).
     pub family: String,
     pub branches: Vec<BranchJob>,
     /// The `[settings]` section alone (what a branch gets when it sets nothing itself).
@@ -122,6 +123,7 @@ struct ModelSpec {
     length: Option<f64>,
     width: Option<f64>,
     height: Option<f64>,
+    thickness: Option<f64>,
     youngs_modulus: Option<f64>,
     density: Option<f64>,
     mass: Option<MatrixSpec>,
@@ -350,6 +352,7 @@ fn build_model(
         ("length", spec.length.is_some()),
         ("width", spec.width.is_some()),
         ("height", spec.height.is_some()),
+        ("thickness", spec.thickness.is_some()),
         ("youngs_modulus", spec.youngs_modulus.is_some()),
         ("density", spec.density.is_some()),
         ("mass", spec.mass.is_some()),
@@ -378,10 +381,18 @@ fn build_model(
             "density",
             "cubic",
         ],
+        "von-karman-beam" => &[
+            "elements",
+            "length",
+            "width",
+            "thickness",
+            "youngs_modulus",
+            "density",
+        ],
         "general" => &["mass", "stiffness", "nonlinear", "cyclic", "fixed_dofs"],
         other => {
             return Err(invalid(format!(
-                "unknown model family `{other}` (expected \"bladed-disk\", \"duffing\", \"two-dof\", \"cantilever-beam\", or no family with mass and stiffness)"
+                "unknown model family `{other}` (expected \"bladed-disk\", \"duffing\", \"two-dof\", \"cantilever-beam\", \"von-karman-beam\", or no family with mass and stiffness)"
             )));
         }
     };
@@ -420,6 +431,19 @@ fn build_model(
                 youngs_modulus: spec.youngs_modulus.unwrap_or(d.youngs_modulus),
                 density: spec.density.unwrap_or(d.density),
                 cubic: spec.cubic.unwrap_or(d.cubic),
+            }
+            .build()
+            .map_err(model_error)?
+        }
+        "von-karman-beam" => {
+            let d = VonKarmanBeam::default();
+            VonKarmanBeam {
+                elements: spec.elements.unwrap_or(d.elements),
+                length: spec.length.unwrap_or(d.length),
+                width: spec.width.unwrap_or(d.width),
+                thickness: spec.thickness.unwrap_or(d.thickness),
+                youngs_modulus: spec.youngs_modulus.unwrap_or(d.youngs_modulus),
+                density: spec.density.unwrap_or(d.density),
             }
             .build()
             .map_err(model_error)?

@@ -590,3 +590,36 @@ fn tensor_model_example_is_the_clamped_chain() {
         assert!(vector_difference(&a, &b) < 1e-14, "{a:?} vs {b:?}");
     }
 }
+
+/// The von Kármán beam family takes its geometry and material from the job (here a thicker,
+/// steel beam of 6 elements) and refuses the cantilever's keys.
+#[test]
+fn von_karman_beam_family_takes_its_parameters() {
+    use nnm::model::{MechanicalSystem, VonKarmanBeam};
+    let job = parse(
+        "[model]\nfamily = \"von-karman-beam\"\nelements = 6\nthickness = 0.02\nyoungs_modulus = 2.1e11\ndensity = 7850\n[[branch]]\nname = \"a\"\nmode = 0\nenergy_max = 1.0",
+    )
+    .unwrap();
+    let direct = VonKarmanBeam {
+        elements: 6,
+        thickness: 0.02,
+        youngs_modulus: 2.1e11,
+        density: 7850.0,
+        ..VonKarmanBeam::default()
+    }
+    .build()
+    .unwrap();
+    assert_eq!(job.family, "von-karman-beam");
+    assert_eq!(job.structure.dofs(), 15);
+    assert!(matrix_difference(job.structure.stiffness(), direct.stiffness()) == 0.0);
+    assert!(matrix_difference(job.structure.mass_matrix(), direct.mass_matrix()) == 0.0);
+    let x: Vec<f64> = (0..15).map(|k| 1e-3 * (k as f64).cos()).collect();
+    assert_eq!(
+        internal_force(&job.structure, &x),
+        internal_force(&direct, &x)
+    );
+    let e = error("[model]\nfamily = \"von-karman-beam\"\nheight = 0.01");
+    assert!(e.contains("`height` does not apply"), "{e}");
+    let e = error("[model]\nfamily = \"von-karman-beam\"\nelements = 1");
+    assert!(e.contains("elements"), "{e}");
+}
