@@ -62,3 +62,38 @@ fn gauss6_and_dop853_agree_on_the_beam() {
         1e-10,
     );
 }
+
+/// A finer beam (50 elements, 100 dofs, `ω_max/ω_1 ≈ 3·10⁴`) in its linear regime: the
+/// monodromy of the symplectic discrete flow has every multiplier on the unit circle and in
+/// reciprocal pairs. Measured: `|μ| − 1 ≤ 1e-10`; before the energy scaling of the monodromy
+/// (docs/method.md eq. (33a)) round-off gave `|μ| = 1.0001` and points flagged unstable.
+#[test]
+fn stiff_beam_multipliers_stay_on_the_unit_circle() {
+    let beam = CantileverBeam {
+        elements: 50,
+        ..CantileverBeam::default()
+    }
+    .build()
+    .unwrap();
+    let start = Start::from_mode(&beam, 0).unwrap();
+    let mut settings = Settings::default();
+    settings.limits.max_points = 3;
+    settings.stability.events = false;
+    let branch = continue_branch(&beam, &start, &settings, |_| ControlFlow::Continue(())).unwrap();
+    for p in &branch.points {
+        let f = &p.floquet;
+        assert_eq!(f.pairs.len(), 99, "one trivial and 99 non-trivial pairs");
+        assert!(f.stable && f.unstable_pairs == 0);
+        assert!(f.max_modulus - 1.0 < 1e-8, "max |μ| = {}", f.max_modulus);
+        assert!(
+            f.reciprocity_defect < 1e-8,
+            "defect {}",
+            f.reciprocity_defect
+        );
+        for pair in &f.pairs {
+            let m = pair.multiplier;
+            let modulus = m.0.hypot(m.1);
+            assert!((modulus - 1.0).abs() < 1e-8, "|μ| = {modulus}");
+        }
+    }
+}

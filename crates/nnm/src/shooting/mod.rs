@@ -31,7 +31,7 @@ use crate::continuation::Linearization;
 use crate::floquet::{DenseFloquet, FloquetSolver};
 use crate::integrate::{Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tolerances};
 use crate::linalg::{self, Mat};
-use crate::model::{Block, MechanicalSystem};
+use crate::model::{Block, BlockMut, MechanicalSystem};
 use crate::settings::Settings;
 
 /// How the time-shift freedom of an autonomous periodic orbit is removed.
@@ -159,11 +159,36 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     first_step: Option<f64>,
     /// `z_ref` of the flow-orthogonal phase condition: the last accepted point's `z0`.
     phase_reference: Vec<f64>,
+    /// `ω_c = √(b_cᵀ K_t(0) b_c)` of each basis column: the scaling that makes the linear
+    /// monodromy orthogonal in modal coordinates (docs/method.md eq. (33a)).
+    modal_frequencies: Vec<f64>,
     /// The convergence tolerance (the full-period check of half-period points uses it).
     tolerance: f64,
     stability_tolerance: f64,
     /// Work counters so far.
     pub stats: ShootingStats,
+}
+
+/// `ω_c = √(b_cᵀ K_t(0) b_c)` for the `r` columns of the mass-orthonormal basis `B` (the
+/// natural frequencies when they are modes); rigid or non-positive columns get 1.
+fn modal_frequencies<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    basis: &[f64],
+    r: usize,
+) -> Vec<f64> {
+    let n = system.dofs();
+    let mut kb = vec![0.0; n * r];
+    system.tangent_stiffness(
+        &vec![0.0; n],
+        Block::new(basis, n, r, n),
+        BlockMut::new(&mut kb, n, r, n),
+    );
+    (0..r)
+        .map(|c| {
+            let w2 = linalg::dot(&basis[c * n..(c + 1) * n], &kb[c * n..(c + 1) * n]);
+            if w2 > 0.0 { w2.sqrt() } else { 1.0 }
+        })
+        .collect()
 }
 
 impl<S: MechanicalSystem + ?Sized> std::fmt::Debug for Shooting<'_, S> {
@@ -249,6 +274,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             velocity_scale: omega_ref,
         };
         let integrator = method.integrator(system, tolerances);
+        let modal_frequencies = modal_frequencies(system, &basis, r);
         Self {
             system,
             n,
@@ -267,6 +293,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             floquet: Box::new(DenseFloquet),
             first_step: None,
             phase_reference,
+            modal_frequencies,
             tolerance,
             stability_tolerance: settings.stability.stability_tolerance,
             stats: ShootingStats::default(),

@@ -83,12 +83,13 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
         if detail == Detail::Light {
             return Ok(point);
         }
-        let monodromy = self.monodromy(evaluation)?;
+        let mut monodromy = self.monodromy(evaluation)?;
         // The trivial pair spans the flow direction g(z0) and the direction along the family:
         // deflate it rather than guess it from the spectrum (degenerate partners also sit
         // near +1, docs/method.md §13).
-        let flow_direction = self.modal_coordinates(&self.field(&evaluation.z0));
-        let family_direction = self.modal_coordinates(&self.initial_state(&solution.tangent));
+        let mut flow_direction = self.modal_coordinates(&self.field(&evaluation.z0));
+        let mut family_direction = self.modal_coordinates(&self.initial_state(&solution.tangent));
+        self.energy_scaling(&mut monodromy, [&mut flow_direction, &mut family_direction]);
         let directions = [flow_direction.as_slice(), family_direction.as_slice()];
         let class = self.unknown_block();
         let floquet = self.floquet.analyse(
