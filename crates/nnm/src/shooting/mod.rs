@@ -14,11 +14,10 @@
 //! [`crate::symmetry`]), while Floquet multipliers always use the whole of `B`.
 //! The period enters as `τ = T / T_ref`. The unknown vector is `u = (a[, b], τ)`.
 //!
-//! **Equations.** Residual rows are weighted `W = diag(I, I/ω_ref)` so that displacement and
-//! velocity mismatches weigh alike, and the convergence test (eq. (19)) is applied in the same
-//! metric: `‖W H‖ / ‖W z0‖ < eps`. With `ω_ref = 1` this is exactly `‖H‖ / ‖z0‖`; in general
-//! it makes the test independent of the time unit (the unweighted one effectively ignores
-//! velocity mismatches when `ω ≪ 1` and over-weights them when `ω ≫ 1`).
+//! **Equations.** The residual is taken in modal coordinates, each mode's velocity divided by
+//! its own frequency (eq. (17)), so that a mode's displacement and velocity mismatches weigh
+//! alike whatever its frequency and the time unit; the convergence test (eq. (19)) is applied
+//! in the same metric: `‖W H‖ / ‖W z0‖ < eps`.
 
 mod monodromy;
 mod point;
@@ -170,11 +169,12 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
 }
 
 /// `ω_c = √(b_cᵀ K_t(0) b_c)` for the `r` columns of the mass-orthonormal basis `B` (the
-/// natural frequencies when they are modes); rigid or non-positive columns get 1.
+/// natural frequencies when they are modes); rigid or non-positive columns get `ω_ref`.
 fn modal_frequencies<S: MechanicalSystem + ?Sized>(
     system: &S,
     basis: &[f64],
     r: usize,
+    omega_ref: f64,
 ) -> Vec<f64> {
     let n = system.dofs();
     let mut kb = vec![0.0; n * r];
@@ -186,7 +186,7 @@ fn modal_frequencies<S: MechanicalSystem + ?Sized>(
     (0..r)
         .map(|c| {
             let w2 = linalg::dot(&basis[c * n..(c + 1) * n], &kb[c * n..(c + 1) * n]);
-            if w2 > 0.0 { w2.sqrt() } else { 1.0 }
+            if w2 > 0.0 { w2.sqrt() } else { omega_ref }
         })
         .collect()
 }
@@ -274,7 +274,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             velocity_scale: omega_ref,
         };
         let integrator = method.integrator(system, tolerances);
-        let modal_frequencies = modal_frequencies(system, &basis, r);
+        let modal_frequencies = modal_frequencies(system, &basis, r, omega_ref);
         Self {
             system,
             n,
@@ -452,7 +452,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         u: &[f64],
         phase_reference: &[f64],
     ) -> Result<Evaluation, ShootingError> {
-        let (n, n2) = (self.n, 2 * self.n);
+        let n2 = 2 * self.n;
         let m = u.len() - 1;
         let period = u[m] * self.period_ref;
         if !(period.is_finite() && period > 0.0) {
@@ -469,27 +469,30 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         self.state_basis = directions;
         let (flow, derivative) = result?;
 
-        let weight = |i: usize| if i < n { 1.0 } else { 1.0 / self.omega_ref };
-        // H = z(T) - z0, or z(T/2) + z0 over half a period.
-        let mut rows: Vec<f64> = (0..n2)
-            .map(|i| weight(i) * (flow.z[i] + sign * z0[i]))
-            .collect();
-        let weighted_z0: Vec<f64> = (0..n2).map(|i| weight(i) * z0[i]).collect();
+        // H = z(T) - z0, or z(T/2) + z0 over half a period, weighted mode by mode (eq. (17)).
+        let h: Vec<f64> = (0..n2).map(|i| flow.z[i] + sign * z0[i]).collect();
+        let mut rows = self.weighted_modal(&h);
+        let r2 = rows.len();
         let relative_residual =
-            linalg::norm(&rows) / linalg::norm(&weighted_z0).max(f64::MIN_POSITIVE);
+            linalg::norm(&rows) / linalg::norm(&self.weighted_modal(&z0)).max(f64::MIN_POSITIVE);
         let phase_rows = usize::from(self.phase == PhaseCondition::FlowOrthogonal);
-        let mut jacobian = Mat::<f64>::zeros(n2 + phase_rows, m + 1);
+        let mut jacobian = Mat::<f64>::zeros(r2 + phase_rows, m + 1);
+        let mut column = vec![0.0; n2];
         for c in 0..m {
             let s = &self.state_basis[c * n2..(c + 1) * n2];
             for i in 0..n2 {
-                jacobian[(i, c)] = weight(i) * (derivative[c * n2 + i] + sign * s[i]);
+                column[i] = derivative[c * n2 + i] + sign * s[i];
+            }
+            for (i, v) in self.weighted_modal(&column).into_iter().enumerate() {
+                jacobian[(i, c)] = v;
             }
         }
         // ∂H/∂τ = (horizon/τ) g(z(horizon)): T_ref g(z(T)), or T_ref/2 g(z(T/2)).
         let mut g_end = vec![0.0; n2];
         self.integrator.field(&flow.z, &mut g_end);
-        for i in 0..n2 {
-            jacobian[(i, m)] = weight(i) * (horizon / u[m]) * g_end[i];
+        g_end.iter_mut().for_each(|g| *g *= horizon / u[m]);
+        for (i, v) in self.weighted_modal(&g_end).into_iter().enumerate() {
+            jacobian[(i, m)] = v;
         }
         if phase_rows == 1 {
             let mut g_ref = vec![0.0; n2];
@@ -500,7 +503,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             rows.push(linalg::dot(&g_ref, &offset));
             for c in 0..m {
                 let s = &self.state_basis[c * n2..(c + 1) * n2];
-                jacobian[(n2, c)] = linalg::dot(&g_ref, s);
+                jacobian[(r2, c)] = linalg::dot(&g_ref, s);
             }
         }
         Ok(Evaluation {
