@@ -85,6 +85,29 @@ pub static GAUSS6: Collocation = Collocation {
     b: &[0.2777777777777778, 0.4444444444444444, 0.2777777777777778],
 };
 
+/// Three-stage Radau IIA collocation, order 5 (`c = (4 ∓ √6)/10, 1`): L-stable, so the
+/// unresolved stiff modes are damped (`R(∞) = 0`) instead of carried with an aliased phase.
+/// Not symplectic: resolved modes lose energy at the order of the tolerance.
+pub static RADAU5: Collocation = Collocation {
+    name: "radau5",
+    order: 5,
+    c: &[0.15505102572168222, 0.6449489742783178, 1.0],
+    a: &[
+        &[
+            0.19681547722366044,
+            -0.06553542585019838,
+            0.02377097434822015,
+        ],
+        &[
+            0.3944243147390873,
+            0.29207341166522843,
+            -0.04154875212599792,
+        ],
+        &[0.37640306270046725, 0.5124858261884216, 0.1111111111111111],
+    ],
+    b: &[0.37640306270046725, 0.5124858261884216, 0.1111111111111111],
+};
+
 /// Newton iterations allowed per step (times four, counting refactorisations) before the
 /// step is declared failed.
 const MAX_NEWTON: usize = 12;

@@ -356,8 +356,8 @@ fn gauss_monodromy_is_symplectic_on_a_stiff_model() {
     }
 }
 
-/// `Auto` picks the implicit method for the stiff beam (highest frequency ~4000× the first)
-/// and the explicit one for the bladed disk (≤ 14×) and Duffing.
+/// `Auto` picks the implicit methods for the stiff beam (highest frequency ~4000× the first):
+/// Gauss6 at 38 dofs, Radau5 at 100; the explicit one for the bladed disk (≤ 14×) and Duffing.
 #[test]
 fn auto_resolves_by_stiffness() {
     let beam = crate::model::CantileverBeam::default().build().unwrap();
@@ -367,6 +367,17 @@ fn auto_resolves_by_stiffness() {
     assert_eq!(
         IntegrationMethod::Auto.resolve(&beam, beam_omega),
         IntegrationMethod::Gauss6
+    );
+    // The same beam refined past `SYMPLECTIC_DOFS`: the damping collocation.
+    let fine = crate::model::CantileverBeam {
+        elements: 50,
+        ..crate::model::CantileverBeam::default()
+    }
+    .build()
+    .unwrap();
+    assert_eq!(
+        IntegrationMethod::Auto.resolve(&fine, beam_omega),
+        IntegrationMethod::Radau5
     );
     assert_eq!(
         IntegrationMethod::Auto.resolve(&disk, 0.18),
