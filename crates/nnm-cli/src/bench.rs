@@ -6,13 +6,16 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use nnm::model::{BladedDisk, Structure, duffing, two_dof};
+use nnm::integrate::IntegrationMethod;
+use nnm::model::{BladedDisk, CantileverBeam, Structure, VonKarmanBeam, duffing, two_dof};
 use nnm::modes::{find_mode, linear_modes};
 use nnm::shooting::JacobianMethod;
 use nnm::{Branch, Settings, Start, continue_branch};
 
 struct Row {
     case: String,
+    /// The variant measured (Jacobian or integrator); the ratio column compares the rows of a
+    /// case with its first.
     method: &'static str,
     seconds: f64,
     points: usize,
@@ -29,28 +32,48 @@ const METHODS: [(JacobianMethod, &str); 2] = [
 ];
 
 fn start(structure: &Structure, label: &str) -> Result<Start> {
-    let modes = linear_modes(structure)?;
-    let (index, _) = find_mode(&modes, label, None).context("mode")?;
-    Ok(Start::from_linear_mode(structure, &modes, index, None)?)
+    start_at(structure, label, None)
 }
 
+/// The start of mode `label`, at linear energy `energy` (`None`: the default).
+fn start_at(structure: &Structure, label: &str, energy: Option<f64>) -> Result<Start> {
+    let modes = linear_modes(structure)?;
+    let (index, _) = find_mode(&modes, label, None).context("mode")?;
+    Ok(Start::from_linear_mode(structure, &modes, index, energy)?)
+}
+
+/// A case with the sensitivity and the finite-difference Jacobian.
 fn branch_rows(
     case: &str,
     structure: &Structure,
     start: &Start,
     settings: &Settings,
 ) -> Result<Vec<Row>> {
-    METHODS
+    let variants: Vec<(&'static str, Settings)> = METHODS
         .iter()
         .map(|&(jacobian, method)| {
-            let settings = {
-                let mut s = settings.clone();
-                s.shooting.jacobian = jacobian;
-                s
-            };
+            let mut s = settings.clone();
+            s.shooting.jacobian = jacobian;
+            (method, s)
+        })
+        .collect();
+    variant_rows(case, structure, start, &variants)
+}
+
+/// A case run once per variant (its name and settings).
+fn variant_rows(
+    case: &str,
+    structure: &Structure,
+    start: &Start,
+    variants: &[(&'static str, Settings)],
+) -> Result<Vec<Row>> {
+    variants
+        .iter()
+        .map(|(method, settings)| {
+            let method = *method;
             let clock = Instant::now();
             let branch: Branch =
-                continue_branch(structure, start, &settings, |_| ControlFlow::Continue(()))?;
+                continue_branch(structure, start, settings, |_| ControlFlow::Continue(()))?;
             let s = branch.stats;
             Ok(Row {
                 case: case.into(),
@@ -106,7 +129,7 @@ fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<
         .collect()
 }
 
-pub fn bench(repeat: usize) -> Result<()> {
+pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
     let disk = BladedDisk::default().build()?;
     let start_1_5 = start(&disk, "1,5")?;
     let mut rows = shooting_rows(&disk, &start_1_5, repeat.max(1))?;
@@ -158,6 +181,61 @@ pub fn bench(repeat: usize) -> Result<()> {
             s
         },
     )?);
+    let groups = rows.len() / 2;
+    let mut sizes = vec![2; groups];
+    if stiff {
+        // Stiff finite-element models: the implicit integrator chosen automatically, the
+        // beam's first mode to +20% as refinement grows (the issue's targets), and on the
+        // 19-element beam its first two points against the explicit integrator.
+        let beam_settings = |shift: f64| {
+            let mut s = Settings::default();
+            s.limits.frequency_shift_max = shift;
+            s.stability.events = false;
+            s
+        };
+        for elements in [19, 50, 100] {
+            let beam = CantileverBeam {
+                elements,
+                ..CantileverBeam::default()
+            }
+            .build()?;
+            eprintln!("bench: beam of {elements} elements");
+            let case = format!("beam {elements} el. ({} dofs) to +20%", 2 * elements);
+            rows.extend(variant_rows(
+                &case,
+                &beam,
+                &start(&beam, "0")?,
+                &[("auto", beam_settings(0.2))],
+            )?);
+            sizes.push(1);
+        }
+        let beam = CantileverBeam::default().build()?;
+        let two_points = |method: IntegrationMethod| {
+            let mut s = beam_settings(0.2);
+            s.limits.max_points = 2;
+            s.integration.integrator = method;
+            s
+        };
+        rows.extend(variant_rows(
+            "beam 19 el., first 2 points",
+            &beam,
+            &start(&beam, "0")?,
+            &[
+                ("gauss6", two_points(IntegrationMethod::Gauss6)),
+                ("dop853", two_points(IntegrationMethod::Dop853)),
+            ],
+        )?);
+        sizes.push(2);
+        let plate = VonKarmanBeam::default().build()?;
+        // Started where the frequency has moved (see examples/von-karman-beam.toml).
+        rows.extend(variant_rows(
+            "von Karman 20 el. (57 dofs) to +8%",
+            &plate,
+            &start_at(&plate, "0", Some(1e-4))?,
+            &[("auto", beam_settings(0.08))],
+        )?);
+        sizes.push(1);
+    }
     println!(
         "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>7}",
         "case",
@@ -171,9 +249,12 @@ pub fn bench(repeat: usize) -> Result<()> {
         "tangents",
         "ratio"
     );
-    for pair in rows.chunks(2) {
-        let base = pair[0].seconds;
-        for r in pair {
+    let mut rest = rows.as_slice();
+    for size in sizes {
+        let (group, tail) = rest.split_at(size);
+        rest = tail;
+        let base = group[0].seconds;
+        for r in group {
             println!(
                 "{:<38} {:<12} {:>10.4} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>7.2}",
                 r.case,
@@ -190,7 +271,7 @@ pub fn bench(repeat: usize) -> Result<()> {
         }
     }
     println!(
-        "ratio: time relative to the sensitivity run of the same case (same run, same machine). \
+        "ratio: time relative to the first row of the same case (same run, same machine). \
          The 3:1 tongue comparison is in the study report (`nnm example bladed-disk`)."
     );
     Ok(())

@@ -67,6 +67,10 @@ enum Command {
         /// Repetitions of the single-evaluation case.
         #[arg(long, default_value_t = 5)]
         repeat: usize,
+        /// Also the stiff finite-element cases (cantilever beams of 19, 50 and 100 elements,
+        /// the von Kármán beam; about a minute).
+        #[arg(long)]
+        stiff: bool,
     },
     /// Run a built-in study end to end; its job file is written into DIR to edit and rerun.
     Example {
@@ -152,7 +156,7 @@ fn execute(cli: Cli) -> Result<()> {
             quick,
             threads,
         } => study::bladed_disk_study(&job, &out, &study::StudyOptions { quick, threads }),
-        Command::Bench { repeat } => bench::bench(repeat),
+        Command::Bench { repeat, stiff } => bench::bench(repeat, stiff),
         Command::Example { which } => {
             let bladed_disk = matches!(which, Example::BladedDisk(_));
             let (name, text, args) = match which {
