@@ -172,15 +172,7 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
         clock.elapsed().as_secs_f64(),
         out.display()
     );
-    let failures: Vec<String> = outcomes
-        .iter()
-        .filter_map(|o| {
-            o.result
-                .as_ref()
-                .err()
-                .map(|e| format!("{}: {e:#}", o.info.name))
-        })
-        .collect();
+    let failures = failures(&outcomes);
     if !failures.is_empty() {
         bail!(
             "{} of {} branches failed ({})",
@@ -190,6 +182,14 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
         );
     }
     Ok(())
+}
+
+/// `"<branch>: <error>"` for every branch that failed.
+pub fn failures(outcomes: &[Outcome]) -> Vec<String> {
+    outcomes
+        .iter()
+        .filter_map(|o| Some(format!("{}: {:#}", o.info.name, o.result.as_ref().err()?)))
+        .collect()
 }
 
 /// Computes branches in parallel (one per worker thread), each written to `out` as it goes.
@@ -537,6 +537,20 @@ pub fn event_markers<'a>(events: impl Iterator<Item = &'a Event>) -> Vec<Marker>
 
 /// One frequency–energy plot of every branch that has points: `<stem>.png` and `<stem>.svg`.
 pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
+    if let Some(fep) = frequency_energy_plot(outcomes, title, 1.0) {
+        fep.write(stem)?;
+    }
+    Ok(())
+}
+
+/// The frequency–energy plot of every branch that has points, one series per branch (labelled
+/// with its name) and its events marked, frequencies multiplied by `scale` (1: rad/s, labelled
+/// so); `None` when no branch has a point.
+pub fn frequency_energy_plot(
+    outcomes: &[Outcome],
+    title: &str,
+    scale: f64,
+) -> Option<FrequencyEnergyPlot> {
     let series: Vec<Series> = outcomes
         .iter()
         .filter_map(|o| {
@@ -548,7 +562,7 @@ pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
                     .iter()
                     .map(|p| SeriesPoint {
                         energy: p.energy,
-                        frequency: p.frequency,
+                        frequency: p.frequency * scale,
                         stable: p.floquet.stable,
                     })
                     .collect(),
@@ -558,21 +572,22 @@ pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
         .filter(|s| !s.points.is_empty())
         .collect();
     if series.is_empty() {
-        return Ok(());
+        return None;
     }
-    let markers = event_markers(
+    let mut markers = event_markers(
         outcomes
             .iter()
             .filter_map(|o| o.result.as_ref().ok())
             .flat_map(|branch| &branch.events),
     );
-    FrequencyEnergyPlot {
+    for m in &mut markers {
+        m.y *= scale;
+    }
+    Some(FrequencyEnergyPlot {
         title: title.into(),
         series,
         frequency_label: "frequency (rad/s)".into(),
         markers,
         ..Default::default()
-    }
-    .write(stem)?;
-    Ok(())
+    })
 }

@@ -195,6 +195,7 @@ fn help_on_every_subcommand() {
         vec!["run", "--help"],
         vec!["example", "--help"],
         vec!["example", "bladed-disk", "--help"],
+        vec!["example", "cantilever-beam", "--help"],
     ] {
         let output = nnm(&args);
         assert!(output.status.success(), "{args:?}");
@@ -400,4 +401,80 @@ fn events_are_written_and_branches_switch_at_them() {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(dir.join("mixed/symmetry-broken.csv").exists());
+}
+
+/// `nnm example cantilever-beam --quick`: the job file it ran (a valid job), the first branch's
+/// files, the figures and the report; `modes.csv` holds the first frequency of the ECL beam,
+/// checked against Euler-Bernoulli theory computed here.
+#[test]
+fn cantilever_beam_example_writes_its_study() {
+    let dir = scratch("beam");
+    let out = dir.join("out");
+    let output = nnm(&[
+        "example",
+        "cantilever-beam",
+        "--out",
+        out.to_str().unwrap(),
+        "--quick",
+        "--quiet",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    for file in [
+        "cantilever-beam.toml",
+        "mode-1.csv",
+        "mode-1.json",
+        "mode-1.events.csv",
+        "modes.csv",
+        "fep.png",
+        "fep-normalised.png",
+        "mode-shapes.png",
+        "report.md",
+    ] {
+        let size = std::fs::metadata(out.join(file)).map_or(0, |m| m.len());
+        assert!(size > 0, "{file} missing or empty");
+    }
+    // Euler-Bernoulli: f1 = (beta1 L)^2 / (2 pi) sqrt(E I / (rho A L^4)), the ECL beam's 23.6615 Hz.
+    let (length, side, youngs, density) = (0.7f64, 0.014f64, 2.05e11, 7800.0);
+    let (area, inertia) = (side * side, side.powi(4) / 12.0);
+    let theory = 1.875_104_068_711_961f64.powi(2) / (2.0 * std::f64::consts::PI)
+        * (youngs * inertia / (density * area * length.powi(4))).sqrt();
+    assert!((theory - 23.6615).abs() < 1e-4, "{theory}");
+    let csv = std::fs::read_to_string(out.join("modes.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|c| *c == name).unwrap();
+    let first: Vec<f64> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let hz = first[column("frequency_hz")];
+    assert!((hz / theory - 1.0).abs() < 1e-4, "{hz} Hz vs {theory} Hz");
+    assert!((first[column("euler_bernoulli_hz")] / theory - 1.0).abs() < 1e-12);
+    assert!(
+        (first[column("frequency_rad_s")] / (2.0 * std::f64::consts::PI * hz) - 1.0).abs() < 1e-12
+    );
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+    // The job file written is the job that ran: `nnm` reads it back, with its one branch.
+    let job = out.join("cantilever-beam.toml");
+    let text = std::fs::read_to_string(&job).unwrap();
+    assert_eq!(text.matches("[[branch]]").count(), 1, "{text}");
+    let modes = nnm(&["modes", job.to_str().unwrap()]);
+    assert!(modes.status.success());
+    let branch = std::fs::read_to_string(out.join("mode-1.csv")).unwrap();
+    assert!(branch.lines().count() > 10, "{branch}");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for text in [
+        "(fep.png)",
+        "(mode-shapes.png)",
+        "| 1 | 23.6615 |",
+        "`mode-1`",
+    ] {
+        assert!(report.contains(text), "report.md lacks {text}");
+    }
 }

@@ -47,6 +47,9 @@ pub struct FrequencyEnergyPlot {
     pub series: Vec<Series>,
     /// y-axis label, e.g. `"frequency (rad/s)"`.
     pub frequency_label: String,
+    /// x-axis label, e.g. `"total energy (J)"`; empty: `"total energy"` (no unit, for models
+    /// in arbitrary units).
+    pub energy_label: String,
     /// Labelled points (x = energy, y = frequency).
     pub markers: Vec<Marker>,
     /// Fixed energy range (energies, not their logarithms; both > 0);
@@ -80,7 +83,11 @@ impl FrequencyEnergyPlot {
             .collect();
         Figure {
             title: &self.title,
-            x_label: "total energy",
+            x_label: if self.energy_label.is_empty() {
+                "total energy"
+            } else {
+                &self.energy_label
+            },
             y_label: &self.frequency_label,
             log_x: true,
             curves,

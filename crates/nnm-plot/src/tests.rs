@@ -47,6 +47,23 @@ fn branch(label: &str, w0: f64, unstable: std::ops::Range<usize>) -> Series {
     }
 }
 
+/// A model in physical units names them on both axes; without `energy_label` the energy axis
+/// stays "total energy".
+#[test]
+fn fep_energy_label_replaces_the_default() {
+    let dir = temp_dir("fep-units");
+    let plot = FrequencyEnergyPlot {
+        series: vec![branch("NNM 1", 1.0, 0..0)],
+        frequency_label: "frequency (Hz)".into(),
+        energy_label: "total energy (J)".into(),
+        ..Default::default()
+    };
+    let stem = dir.join("fep");
+    plot.write(&stem).unwrap();
+    check_files(&stem, &["total energy (J)", "frequency (Hz)"]);
+    std::fs::remove_dir_all(dir).ok();
+}
+
 #[test]
 fn fep_writes_png_and_svg() {
     let dir = temp_dir("fep");
@@ -325,6 +342,7 @@ fn zoomed_fep_with_markers_and_reference() {
         ],
         x_range: Some((0.01, 100.0)),
         y_range: None,
+        ..Default::default()
     };
     let stem = dir.join("zoom");
     plot.write(&stem).unwrap();

@@ -14,7 +14,7 @@ use nnm::{Branch, BranchPoint, Settings};
 use nnm_io::job::BranchJob;
 
 use super::StudyOptions;
-use crate::run::{Outcome, compute_all, compute_branch, create_dir, make_start, resolve};
+use crate::run::{Outcome, compute_all, compute_branch, create_dir, failures, make_start, resolve};
 
 /// Backbones of the quick study: enough for every section (the tongue's ends (0,6) and (1,12),
 /// the localizing (1,14), the switch on (1,5)) and a few to compare with.
@@ -102,10 +102,7 @@ pub(super) fn compute(
         true,
     )?;
     let seconds = started.elapsed().as_secs_f64();
-    let failed: Vec<String> = outcomes
-        .iter()
-        .filter_map(|o| Some(format!("{}: {:#}", o.info.name, o.result.as_ref().err()?)))
-        .collect();
+    let failed = failures(&outcomes);
     if !failed.is_empty() {
         bail!("backbones failed: {}", failed.join("; "));
     }

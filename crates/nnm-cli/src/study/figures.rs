@@ -179,6 +179,7 @@ pub(super) fn bifurcations(switched: &Switched, out: &Path) -> Result<()> {
                 .map_or(event.point.energy, |p| p.energy),
         )),
         y_range: Some((linear * 0.995, linear * (1.0 + SWITCHED_SHIFT + 0.02))),
+        ..Default::default()
     }
     .write(&out.join("bifurcations"))?;
     Ok(())
@@ -251,6 +252,7 @@ pub(super) fn tongue(
         markers,
         x_range: Some(x_range),
         y_range: Some((f_lo - pad, f_hi + pad)),
+        ..Default::default()
     }
     .write(&out.join("tongue"))?;
     let along = |value: &dyn Fn(f64, f64) -> f64| -> Vec<(f64, f64)> {
