@@ -226,6 +226,56 @@ fn modes_writes_the_contract_columns() {
     assert_eq!(rows[59].split('"').nth(1), Some("1,15"));
 }
 
+/// A penalty spring (k = 1e12 between two unit masses grounded by unit springs): `nnm modes`
+/// lists ω = 1 and √(1 + 2k), neither rigid (the old relative threshold called the first rigid
+/// at 0 rad/s); with k = 1e14 the soft mode is within round-off of rigid and the command
+/// fails with a one-line error instead of a wrong answer.
+#[test]
+fn modes_of_a_penalty_spring_are_right_or_refused() {
+    let dir = scratch("penalty");
+    let job = write(
+        &dir,
+        "job.toml",
+        "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[1000000000001.0, -1000000000000.0], [-1000000000000.0, 1000000000001.0]]\n",
+    );
+    let output = nnm(&["modes", &job, "--out", dir.to_str().unwrap()]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.join("modes.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    let w: Vec<f64> = rows.iter().map(|r| r[1].parse().unwrap()).collect();
+    assert!((w[0] - 1.0).abs() < 1e-12, "{csv}");
+    assert!(
+        (w[1] - (1.0 + 2e12f64).sqrt()).abs() < 1e-12 * w[1],
+        "{csv}"
+    );
+    assert!(rows.iter().all(|r| r.last() == Some(&"false")), "{csv}");
+
+    let job = write(
+        &dir,
+        "stiffer.toml",
+        "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[100000000000001.0, -100000000000000.0], [-100000000000000.0, 100000000000001.0]]\n",
+    );
+    let output = nnm(&["modes", &job]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("error: "), "{stderr}");
+    assert!(
+        stderr.contains("cannot be told from a rigid-body mode"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"));
+}
+
 #[test]
 fn run_writes_csv_and_json_per_branch() {
     let dir = scratch("run");

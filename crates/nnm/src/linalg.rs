@@ -290,13 +290,6 @@ pub fn right_singular(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Linalg
     Ok((order.iter().map(|&k| values[k]).collect(), vectors))
 }
 
-/// `A v` for a dense matrix and a vector.
-pub fn times(a: MatRef<'_, f64>, v: &[f64]) -> Vec<f64> {
-    (0..a.nrows())
-        .map(|i| (0..a.ncols()).map(|j| a[(i, j)] * v[j]).sum())
-        .collect()
-}
-
 /// Euclidean norm.
 pub fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()

@@ -76,3 +76,25 @@ fn from_state_refuses_bad_input() {
         );
     }
 }
+
+/// A model above the dense modal limit gets only its lowest modes, which do not span the
+/// state space: starting a shooting branch from them is refused with an error saying so,
+/// rather than solving a residual projected on 20 modes as if it were the whole one.
+#[test]
+fn large_model_start_is_refused_without_a_complete_basis() {
+    let beam = nnm::model::CantileverBeam {
+        elements: 1100,
+        ..nnm::model::CantileverBeam::default()
+    }
+    .build()
+    .unwrap();
+    let error = Start::from_mode(&beam, 0).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            nnm::shooting::StartError::IncompleteBasis { dofs: 2200, .. }
+        ),
+        "{error}"
+    );
+    assert!(error.to_string().contains("every linear mode"), "{error}");
+}

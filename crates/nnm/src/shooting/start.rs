@@ -63,6 +63,20 @@ pub enum StartError {
     /// The linear modal analysis failed.
     #[error(transparent)]
     Modes(#[from] ModesError),
+    /// The modes given do not span the state space (a large model's lowest modes only): the
+    /// shooting residual is taken in modal coordinates (docs/method.md eq. (17)) and would
+    /// then miss whatever lies outside them.
+    #[error(
+        "the shooting needs every linear mode, but {given} of {dofs} were computed (models above {limit} dofs get only their lowest modes; the matrix-free path for them is not built yet)"
+    )]
+    IncompleteBasis {
+        /// Modes given.
+        given: usize,
+        /// Degrees of freedom of the model.
+        dofs: usize,
+        /// Size above which only the lowest modes are computed.
+        limit: usize,
+    },
 }
 
 impl Start {
@@ -96,6 +110,13 @@ impl Start {
             return Err(StartError::RigidMode(index));
         }
         let n = system.dofs();
+        if modes.len() < n {
+            return Err(StartError::IncompleteBasis {
+                given: modes.len(),
+                dofs: n,
+                limit: crate::modes::DENSE_MODES_LIMIT,
+            });
+        }
         // Rigid-body modes are left out of the unknowns only when the nonlinear forces leave
         // them alone; otherwise they are kept like any other mode.
         let amplitude_scale = weakly_nonlinear_amplitude(system, &mode.shape, 1.0);
