@@ -110,13 +110,7 @@ impl Start {
             return Err(StartError::RigidMode(index));
         }
         let n = system.dofs();
-        if modes.len() < n {
-            return Err(StartError::IncompleteBasis {
-                given: modes.len(),
-                dofs: n,
-                limit: crate::modes::DENSE_MODES_LIMIT,
-            });
-        }
+        complete_basis(modes, n)?;
         // Rigid-body modes are left out of the unknowns only when the nonlinear forces leave
         // them alone; otherwise they are kept like any other mode.
         let amplitude_scale = weakly_nonlinear_amplitude(system, &mode.shape, 1.0);
@@ -188,6 +182,7 @@ impl Start {
             )));
         }
         let modes = linear_modes(system)?;
+        complete_basis(&modes, n)?;
         let elastic: Vec<&LinearMode> = modes.iter().filter(|m| !m.rigid).collect();
         let basis: Vec<f64> = elastic.iter().flat_map(|m| m.shape.clone()).collect();
         let shape_norm = linalg::norm(&z0[..n]);
@@ -257,6 +252,18 @@ impl Start {
         };
         (u0, pin)
     }
+}
+
+/// Refuses a modal basis that does not span the `n` dofs (a large model's lowest modes).
+fn complete_basis(modes: &[LinearMode], n: usize) -> Result<(), StartError> {
+    if modes.len() < n {
+        return Err(StartError::IncompleteBasis {
+            given: modes.len(),
+            dofs: n,
+            limit: crate::modes::DENSE_MODES_LIMIT,
+        });
+    }
+    Ok(())
 }
 
 /// `M B` for the columns of `basis`.
