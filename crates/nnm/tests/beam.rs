@@ -7,15 +7,25 @@ use nnm::integrate::IntegrationMethod;
 use nnm::model::CantileverBeam;
 use nnm::prelude::*;
 
-fn first_points(method: IntegrationMethod, points: usize) -> Vec<(f64, f64)> {
-    let beam = CantileverBeam::default().build().unwrap();
+/// The first `points` points of the first NNM of the ECL beam with `elements` elements, by
+/// `method`, events off.
+fn branch(elements: usize, method: IntegrationMethod, points: usize) -> Branch {
+    let beam = CantileverBeam {
+        elements,
+        ..CantileverBeam::default()
+    }
+    .build()
+    .unwrap();
     let start = Start::from_mode(&beam, 0).unwrap();
     let mut settings = Settings::default();
     settings.limits.max_points = points;
     settings.stability.events = false;
     settings.integration.integrator = method;
-    let branch = continue_branch(&beam, &start, &settings, |_| ControlFlow::Continue(())).unwrap();
-    branch
+    continue_branch(&beam, &start, &settings, |_| ControlFlow::Continue(())).unwrap()
+}
+
+fn first_points(method: IntegrationMethod, points: usize) -> Vec<(f64, f64)> {
+    branch(19, method, points)
         .points
         .iter()
         .map(|p| (p.energy, p.frequency))
@@ -55,23 +65,13 @@ fn gauss4_gauss6_and_radau5_agree_on_the_beam() {
 /// elements on (aliased unresolved modes, `integrate::SYMPLECTIC_DOFS`).
 #[test]
 fn fine_beam_branch_starts_under_auto() {
-    let beam = CantileverBeam {
-        elements: 100,
-        ..CantileverBeam::default()
-    }
-    .build()
-    .unwrap();
-    let start = Start::from_mode(&beam, 0).unwrap();
-    let mut settings = Settings::default();
-    settings.limits.max_points = 3;
-    settings.stability.events = false;
-    let branch = continue_branch(&beam, &start, &settings, |_| ControlFlow::Continue(())).unwrap();
+    let branch = branch(100, IntegrationMethod::Auto, 3);
     assert_eq!(branch.points.len(), 3);
     let linear = 2.0 * std::f64::consts::PI * 23.6615;
     for p in &branch.points {
         assert!(p.floquet.stable, "point {} unstable", p.index);
         assert!((p.frequency / linear - 1.0).abs() < 1e-3, "{}", p.frequency);
-        assert!(p.relative_residual < settings.continuation.tolerance);
+        assert!(p.relative_residual < Settings::default().continuation.tolerance);
     }
 }
 
@@ -94,20 +94,9 @@ fn gauss6_and_dop853_agree_on_the_beam() {
 /// (docs/method.md eq. (33a)) round-off gave `|μ| = 1.0001` and points flagged unstable.
 #[test]
 fn stiff_beam_multipliers_stay_on_the_unit_circle() {
-    let beam = CantileverBeam {
-        elements: 50,
-        ..CantileverBeam::default()
-    }
-    .build()
-    .unwrap();
-    let start = Start::from_mode(&beam, 0).unwrap();
-    let mut settings = Settings::default();
-    settings.limits.max_points = 3;
-    settings.stability.events = false;
     // The symplectic scheme (Auto takes Radau5 at this size, whose dissipation moves the
     // multipliers inside the circle by design).
-    settings.integration.integrator = IntegrationMethod::Gauss6;
-    let branch = continue_branch(&beam, &start, &settings, |_| ControlFlow::Continue(())).unwrap();
+    let branch = branch(50, IntegrationMethod::Gauss6, 3);
     for p in &branch.points {
         let f = &p.floquet;
         assert_eq!(f.pairs.len(), 99, "one trivial and 99 non-trivial pairs");
