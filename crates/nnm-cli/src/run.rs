@@ -9,7 +9,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use nnm::bifurcation::{Event, switch_branch};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
-use nnm::shooting::PhaseCondition;
+use nnm::shooting::{EvaluationProgress, PhaseCondition};
 use nnm::{Branch, BranchPoint, Observer, Start, continue_branch_observed};
 use nnm_io::job::{BranchJob, EventStart, load_job};
 use nnm_io::output::{BranchInfo, BranchWriter, SwitchedFrom, write_modes_csv};
@@ -423,6 +423,8 @@ pub fn compute_branch(
     let mut observer = Writing {
         writer: &mut writer,
         error: None,
+        since_point: Instant::now(),
+        points: 0,
         info,
         quiet,
         log,
@@ -456,6 +458,10 @@ pub fn compute_branch(
 struct Writing<'a, F> {
     writer: &'a mut BranchWriter,
     error: Option<nnm_io::output::OutputError>,
+    /// When the last point (or the branch) was done, and how many points there are: a point
+    /// that takes longer than [`SLOW_POINT`] shows its evaluations.
+    since_point: Instant,
+    points: usize,
     info: &'a BranchInfo,
     quiet: bool,
     log: &'a Mutex<()>,
@@ -481,8 +487,30 @@ impl<F> Writing<'_, F> {
     }
 }
 
+/// A point taking longer than this shows its progress (each evaluation of the shooting
+/// equations: Newton iterations, and trial points while an event is located).
+const SLOW_POINT: std::time::Duration = std::time::Duration::from_secs(1);
+
 impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F> {
+    fn evaluation(&mut self, e: &EvaluationProgress) {
+        let elapsed = self.since_point.elapsed();
+        if !self.quiet && elapsed > SLOW_POINT {
+            let _guard = self.log.lock();
+            eprintln!(
+                "[{}] point {:>3} in progress: evaluation {}, relative residual {:.2e}, T = {:.6e} s ({:.1} s)",
+                self.info.name,
+                self.points,
+                e.evaluations,
+                e.relative_residual,
+                e.period,
+                elapsed.as_secs_f64()
+            );
+        }
+    }
+
     fn point(&mut self, p: &BranchPoint) -> ControlFlow<()> {
+        self.since_point = Instant::now();
+        self.points += 1;
         let written = self.writer.write_point(p);
         let linear = self.info.linear_frequency_rad_s;
         self.after_write(written, || {

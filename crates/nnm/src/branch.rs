@@ -11,7 +11,7 @@ use crate::bifurcation::{BifurcationDetector, Event};
 use crate::continuation::{Continuation, ContinuationError, Item};
 use crate::model::MechanicalSystem;
 use crate::settings::Settings;
-use crate::shooting::{BranchPoint, ShootingStats, Start};
+use crate::shooting::{BranchPoint, EvaluationProgress, ShootingStats, Start};
 
 /// A first point that failed on a half-period problem: the likely cause, a motion that is
 /// not half-wave symmetric, is named beside the failure it wraps.
@@ -95,6 +95,9 @@ pub trait Observer {
     fn event(&mut self, _event: &Event) -> ControlFlow<()> {
         ControlFlow::Continue(())
     }
+    /// One evaluation of the shooting equations (a Newton iteration or a trial point), for
+    /// progress within a point; called from inside the continuation step.
+    fn evaluation(&mut self, _progress: &EvaluationProgress) {}
 }
 
 impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for F {
@@ -121,10 +124,16 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     system: &S,
     start: &Start,
     settings: &Settings,
-    mut observer: impl Observer,
+    observer: impl Observer,
 ) -> Result<Branch, ContinuationError> {
     settings.validate()?;
+    // The observer hears of evaluations from inside a continuation step and of points
+    // between steps, never both at once.
+    let observer = std::cell::RefCell::new(observer);
     let mut shooting = start.shooting(system, settings);
+    shooting.set_progress(Box::new(|progress| {
+        observer.borrow_mut().evaluation(progress);
+    }));
     let half_period = shooting.half_period();
     let (u0, pin) = start.first_guess(&shooting);
     let detector = settings.stability.events.then_some(BifurcationDetector);
@@ -147,14 +156,14 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
         };
         match item {
             Item::Event(event) => {
-                let flow = observer.event(&event);
+                let flow = observer.borrow_mut().event(&event);
                 events.push(event);
                 if flow.is_break() {
                     break StopReason::Interrupted;
                 }
             }
             Item::Point(point) => {
-                let flow = observer.point(&point);
+                let flow = observer.borrow_mut().point(&point);
                 let (energy, frequency) = (point.energy, point.frequency);
                 points.push(point);
                 if flow.is_break() {

@@ -251,3 +251,56 @@ fn floquet_verdict_does_not_depend_on_the_jacobian_near_a_degenerate_pair() {
         sensitivity.reciprocity_defect
     );
 }
+
+/// The observer hears of every shooting evaluation between its points: as many as the
+/// shooting counted, each point preceded by at least one, and the last evaluation before a
+/// point is the one it converged with (same residual).
+#[test]
+fn observer_hears_every_evaluation() {
+    struct Counting {
+        evaluations: Vec<EvaluationProgress>,
+        since_point: usize,
+        residual_matches: usize,
+        points: usize,
+    }
+    impl Observer for &mut Counting {
+        fn point(&mut self, point: &BranchPoint) -> ControlFlow<()> {
+            assert!(
+                self.since_point > 0,
+                "point {} without an evaluation",
+                point.index
+            );
+            let last = self.evaluations.last().unwrap();
+            if last.relative_residual == point.relative_residual {
+                self.residual_matches += 1;
+            }
+            self.since_point = 0;
+            self.points += 1;
+            ControlFlow::Continue(())
+        }
+        fn evaluation(&mut self, progress: &EvaluationProgress) {
+            self.evaluations.push(*progress);
+            self.since_point += 1;
+        }
+    }
+    let structure = duffing(1.0, 1.0).unwrap();
+    let start = Start::from_mode(&structure, 0).unwrap();
+    let mut settings = Settings::default();
+    settings.limits.max_points = 10;
+    settings.stability.events = false;
+    let mut counting = Counting {
+        evaluations: Vec::new(),
+        since_point: 0,
+        residual_matches: 0,
+        points: 0,
+    };
+    let branch = continue_branch_observed(&structure, &start, &settings, &mut counting).unwrap();
+    assert_eq!(counting.points, 10);
+    assert_eq!(
+        counting.evaluations.len(),
+        branch.stats.shooting.evaluations
+    );
+    let numbers: Vec<usize> = counting.evaluations.iter().map(|e| e.evaluations).collect();
+    assert_eq!(numbers, (1..=numbers.len()).collect::<Vec<_>>());
+    assert_eq!(counting.residual_matches, 10);
+}

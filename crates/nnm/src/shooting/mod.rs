@@ -129,6 +129,8 @@ pub enum ShootingError {
 /// Work counters of the shooting problem.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct ShootingStats {
+    /// Evaluations of the shooting equations (Newton iterations and trial points).
+    pub evaluations: usize,
     /// Integrations of the motion (with or without sensitivities).
     pub integrations: usize,
     /// Their work, summed (finite-difference runs included).
@@ -166,6 +168,20 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     stability_tolerance: f64,
     /// Work counters so far.
     pub stats: ShootingStats,
+    /// Called after every evaluation (a Newton iteration, or a trial point of an event's
+    /// location), for progress within a long point.
+    progress: Option<Box<dyn FnMut(&EvaluationProgress) + 'a>>,
+}
+
+/// One shooting evaluation, as reported to a progress hook ([`Shooting::set_progress`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EvaluationProgress {
+    /// Evaluations of this shooting problem so far (this one included).
+    pub evaluations: usize,
+    /// The evaluation's relative residual (eq. (19)).
+    pub relative_residual: f64,
+    /// Its period `T`.
+    pub period: f64,
 }
 
 /// `ω_c = √(b_cᵀ K_t(0) b_c)` for the `r` columns of the mass-orthonormal basis `B` (the
@@ -297,7 +313,14 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             tolerance,
             stability_tolerance: settings.stability.stability_tolerance,
             stats: ShootingStats::default(),
+            progress: None,
         }
+    }
+
+    /// Calls `hook` after every evaluation: a long point (a large model's Newton iterations
+    /// take seconds each) can show its progress.
+    pub fn set_progress(&mut self, hook: Box<dyn FnMut(&EvaluationProgress) + 'a>) {
+        self.progress = Some(hook);
     }
 
     /// Replaces the integrator (e.g. an implicit one for a stiff model). Its tolerances are
@@ -505,6 +528,14 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
                 let s = &self.state_basis[c * n2..(c + 1) * n2];
                 jacobian[(r2, c)] = linalg::dot(&g_ref, s);
             }
+        }
+        self.stats.evaluations += 1;
+        if let Some(hook) = self.progress.as_mut() {
+            hook(&EvaluationProgress {
+                evaluations: self.stats.evaluations,
+                relative_residual,
+                period,
+            });
         }
         Ok(Evaluation {
             z0,
