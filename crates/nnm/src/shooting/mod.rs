@@ -170,8 +170,11 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     pub stats: ShootingStats,
     /// Called after every evaluation (a Newton iteration, or a trial point of an event's
     /// location), for progress within a long point.
-    progress: Option<Box<dyn FnMut(&EvaluationProgress) + 'a>>,
+    progress: Option<ProgressHook<'a>>,
 }
+
+/// A progress hook: called with every evaluation.
+pub type ProgressHook<'a> = Box<dyn FnMut(&EvaluationProgress) + 'a>;
 
 /// One shooting evaluation, as reported to a progress hook ([`Shooting::set_progress`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -319,7 +322,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
 
     /// Calls `hook` after every evaluation: a long point (a large model's Newton iterations
     /// take seconds each) can show its progress.
-    pub fn set_progress(&mut self, hook: Box<dyn FnMut(&EvaluationProgress) + 'a>) {
+    pub fn set_progress(&mut self, hook: ProgressHook<'a>) {
         self.progress = Some(hook);
     }
 
