@@ -8,10 +8,10 @@
 use std::ops::ControlFlow;
 
 use crate::bifurcation::{BifurcationDetector, Event};
-use crate::continuation::{Continuation, ContinuationError, Item};
+use crate::continuation::{Continuation, ContinuationError, Detail, Item, Segment, Solution};
 use crate::model::MechanicalSystem;
-use crate::settings::Settings;
-use crate::shooting::{BranchPoint, EvaluationProgress, ShootingStats, Start};
+use crate::settings::{Limits, Settings};
+use crate::shooting::{BranchPoint, EvaluationProgress, Shooting, ShootingStats, Start};
 
 /// A first point that failed on a half-period problem: the likely cause, a motion that is
 /// not half-wave symmetric, is named beside the failure it wraps.
@@ -140,6 +140,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     let mut points: Vec<BranchPoint> = Vec::new();
     let mut events: Vec<Event> = Vec::new();
     let limits = &settings.limits;
+    let mut beyond: Option<BranchPoint> = None;
     let mut continuation =
         Continuation::new(&mut shooting, u0, &pin, &settings.continuation, detector)?;
     let stop = loop {
@@ -163,6 +164,13 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                 }
             }
             Item::Point(point) => {
+                // A point past a limit is replaced by the point exactly on it (below).
+                if let Some((reason, _)) = passed_limit(limits, start.omega, &point)
+                    && !points.is_empty()
+                {
+                    beyond = Some(point);
+                    break reason;
+                }
                 let flow = observer.borrow_mut().point(&point);
                 let (energy, frequency) = (point.energy, point.frequency);
                 points.push(point);
@@ -178,8 +186,17 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
             }
         }
     };
-    let counters = continuation.stats();
+    let mut counters = continuation.stats();
     drop(continuation);
+    if let (Some(next), Some(previous)) = (beyond, points.last()) {
+        let (exact, iterations) =
+            point_on_limit(&mut shooting, settings, start.omega, previous, &next);
+        counters.newton_iterations += iterations;
+        let last = exact.unwrap_or(next);
+        // The branch stops here whatever the observer answers.
+        let _ = observer.borrow_mut().point(&last);
+        points.push(last);
+    }
     let stats = BranchStats {
         points: points.len(),
         events: events.len(),
@@ -196,6 +213,100 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
         omega: start.omega,
     })
 }
+
+/// The limit `point` has passed, if any, with the signed distance to it `g` (negative before
+/// it, positive past it): `E/E_max − 1`, or `|ω/ω_ref − 1| − frequency_shift_max`.
+fn passed_limit(limits: &Limits, omega: f64, point: &BranchPoint) -> Option<(StopReason, f64)> {
+    [
+        (StopReason::EnergyMax, energy_distance(limits, point)),
+        (
+            StopReason::FrequencyShiftMax,
+            frequency_distance(limits, omega, point),
+        ),
+    ]
+    .into_iter()
+    .find(|(_, g)| *g > 0.0)
+}
+
+fn energy_distance(limits: &Limits, point: &BranchPoint) -> f64 {
+    point.energy / limits.energy_max - 1.0
+}
+
+fn frequency_distance(limits: &Limits, omega: f64, point: &BranchPoint) -> f64 {
+    (point.frequency / omega - 1.0).abs() - limits.frequency_shift_max
+}
+
+/// The point exactly on the limit that `next` has passed (docs/method.md eq. (26a)): on the
+/// last step's segment, the arclength `s` where the limit's distance `g(s)` vanishes, found by
+/// the Illinois variant of regula falsi from the bracket `g(0) < 0 < g(L)`, each trial
+/// corrected on the step's hyperplane like an event's. Returns `None` (the caller keeps
+/// `next`) if a trial fails to converge, and the Newton iterations spent.
+fn point_on_limit<S: MechanicalSystem + ?Sized>(
+    shooting: &mut Shooting<'_, S>,
+    settings: &Settings,
+    omega: f64,
+    previous: &BranchPoint,
+    next: &BranchPoint,
+) -> (Option<BranchPoint>, usize) {
+    let Some((reason, _)) = passed_limit(&settings.limits, omega, next) else {
+        return (None, 0);
+    };
+    let limits = &settings.limits;
+    let g = |p: &BranchPoint| match reason {
+        StopReason::EnergyMax => energy_distance(limits, p),
+        _ => frequency_distance(limits, omega, p),
+    };
+    let solution = |p: &BranchPoint| Solution {
+        index: p.index,
+        u: p.unknowns.clone(),
+        tangent: p.tangent.clone(),
+        step: p.step,
+        iterations: p.iterations,
+    };
+    let (a, b) = (solution(previous), solution(next));
+    let mut segment = Segment::new(shooting, (&a, previous), (&b, next), &settings.continuation);
+    let (mut s0, mut g0) = (0.0, g(previous));
+    let (mut s1, mut g1) = (segment.length(), g(next));
+    let mut exact = None;
+    if g0 < 0.0 && g1 > 0.0 {
+        let mut last_side = 0;
+        for _ in 0..40 {
+            let s = (s0 * g1 - s1 * g0) / (g1 - g0);
+            let Ok(trial) = segment.point_at(s, Detail::Light, 0.1) else {
+                break;
+            };
+            let gs = g(&trial);
+            if gs.abs() <= LIMIT_TOLERANCE {
+                exact = segment.point_at(s, Detail::Full, 0.1).ok().map(|mut p| {
+                    p.index = next.index;
+                    p.step = s;
+                    p
+                });
+                break;
+            }
+            // Illinois: halve the stale end's value when the same end is kept twice.
+            if gs < 0.0 {
+                (s0, g0) = (s, gs);
+                if last_side == -1 {
+                    g1 *= 0.5;
+                }
+                last_side = -1;
+            } else {
+                (s1, g1) = (s, gs);
+                if last_side == 1 {
+                    g0 *= 0.5;
+                }
+                last_side = 1;
+            }
+        }
+    }
+    let iterations = segment.newton_iterations();
+    (exact, iterations)
+}
+
+/// How close the last point of a branch stopped by a limit lies to it: `|E/E_max − 1|`, or
+/// `||ω/ω_ref − 1| − shift_max|`.
+pub const LIMIT_TOLERANCE: f64 = 1e-10;
 
 #[cfg(test)]
 mod tests;

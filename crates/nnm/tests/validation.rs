@@ -234,7 +234,12 @@ fn bladed_disk_mode_1_0_matches_duffing_reduction() {
     );
     assert_eq!(branch.stop, StopReason::FrequencyShiftMax);
     let last = branch.points.last().unwrap();
-    assert!(shift(last, w0) >= 0.2, "reached only {}", shift(last, w0));
+    // Ends on the limit (docs/method.md eq. (26a)).
+    assert!(
+        (shift(last, w0) - 0.2).abs() < 1e-9,
+        "ended at {}",
+        shift(last, w0)
+    );
 
     let n_s = p.sectors as f64;
     let mass = &structure.mass_matrix().to_dense();
@@ -747,7 +752,7 @@ fn bladed_disk_backbones_reach_targets_and_localize() {
         );
         assert_eq!(b.branch.stop, target, "({label}) stopped early");
     }
-    assert!(backbone_0_6().branch.points.last().unwrap().energy >= 1000.0);
+    assert!(backbone_0_6().branch.points.last().unwrap().energy >= 1000.0 * (1.0 - 1e-9));
 
     let (worst, at) = worst_sin_content(backbone_1_5());
     eprintln!("[1,5] max sin-partner content {worst:.2e} (at E = {at:.4e})");

@@ -304,3 +304,39 @@ fn observer_hears_every_evaluation() {
     assert_eq!(numbers, (1..=numbers.len()).collect::<Vec<_>>());
     assert_eq!(counting.residual_matches, 10);
 }
+
+/// A branch stopped by a limit ends exactly on it (issue: `energy_max = 5` on the two-DOF
+/// model used to end at E = 8.63): the last point's energy, or frequency shift, is the limit
+/// to 1e-10, it is a converged point with its stability, and on Duffing its period is the
+/// exact elliptic one at that energy.
+#[test]
+fn limits_are_met_exactly() {
+    use crate::model::two_dof;
+    let structure = two_dof(0.5).unwrap();
+    let mut settings = Settings::default();
+    settings.limits.energy_max = 5.0;
+    let branch = backbone(&structure, 0, &settings);
+    let last = branch.points.last().unwrap();
+    assert_eq!(branch.stop, StopReason::EnergyMax);
+    assert!(
+        (last.energy / 5.0 - 1.0).abs() <= LIMIT_TOLERANCE,
+        "{}",
+        last.energy
+    );
+    assert!(last.relative_residual < settings.continuation.tolerance);
+    assert!(!last.floquet.multipliers.is_empty());
+    assert!(branch.points.iter().rev().skip(1).all(|p| p.energy < 5.0));
+
+    let (w0, alpha) = (1.0, 1.0);
+    let duffing = duffing(w0, alpha).unwrap();
+    let mut settings = Settings::default();
+    settings.continuation.tolerance = 1e-10;
+    settings.limits.frequency_shift_max = 0.3;
+    let branch = backbone(&duffing, 0, &settings);
+    let last = branch.points.last().unwrap();
+    assert_eq!(branch.stop, StopReason::FrequencyShiftMax);
+    let shift = last.frequency / w0 - 1.0;
+    assert!((shift - 0.3).abs() <= LIMIT_TOLERANCE, "shift {shift}");
+    let exact = duffing_period(w0, alpha, duffing_amplitude(w0, alpha, last.energy));
+    assert!((last.period - exact).abs() < 1e-8 * exact);
+}

@@ -225,18 +225,12 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             };
             control.accept(solution.iterations);
             let (previous, previous_point) = self.current.as_ref().expect("started");
-            let mut segment = Segment {
-                problem: self.problem,
-                previous,
-                previous_point,
-                next: &solution,
-                next_point: &point,
-                settings: &settings,
-                known: vec![(0.0, previous.u.clone())],
-                newton_iterations: 0,
-                location_steps: 0,
-            };
-            segment.known.push((segment.length(), solution.u.clone()));
+            let mut segment = Segment::new(
+                self.problem,
+                (previous, previous_point),
+                (&solution, &point),
+                &settings,
+            );
             let events = self.detector.detect(&mut segment);
             self.stats.newton_iterations += segment.newton_iterations;
             self.stats.location_steps += segment.location_steps;
@@ -289,7 +283,34 @@ pub struct Segment<'s, P: ContinuationProblem> {
     location_steps: usize,
 }
 
-impl<P: ContinuationProblem> Segment<'_, P> {
+impl<'s, P: ContinuationProblem> Segment<'s, P> {
+    /// The segment between two consecutive solutions of `problem` (each with its point).
+    pub fn new(
+        problem: &'s mut P,
+        previous: (&'s Solution, &'s P::Point),
+        next: (&'s Solution, &'s P::Point),
+        settings: &'s ContinuationSettings,
+    ) -> Self {
+        let mut segment = Segment {
+            problem,
+            previous: previous.0,
+            previous_point: previous.1,
+            next: next.0,
+            next_point: next.1,
+            settings,
+            known: vec![(0.0, previous.0.u.clone())],
+            newton_iterations: 0,
+            location_steps: 0,
+        };
+        segment.known.push((segment.length(), next.0.u.clone()));
+        segment
+    }
+
+    /// Newton iterations spent on trial points so far.
+    pub fn newton_iterations(&self) -> usize {
+        self.newton_iterations
+    }
+
     /// The first end: its solution and point.
     pub fn previous(&self) -> (&Solution, &P::Point) {
         (self.previous, self.previous_point)
