@@ -54,9 +54,12 @@ pub enum JobError {
     },
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
-    #[error("{path}: invalid model: {error}")]
+    // The model's own message says what is wrong ("invalid model parameter: …", "mass matrix
+    // is not positive definite"); a second "invalid model:" only stuttered.
+    #[error("{path}: {error}")]
     Model { path: PathBuf, error: ModelError },
-    #[error("{0}")]
+    // Transparent: with `{0}` and `#[from]` (a source), error chains printed the message twice.
+    #[error(transparent)]
     Matrix(#[from] MatrixMarketError),
 }
 
