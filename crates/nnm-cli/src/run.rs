@@ -253,7 +253,7 @@ pub fn compute_all(
                         },
                     );
                     let done = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                    if total > 1 {
+                    if total > 1 && !quiet {
                         let _guard = log.lock();
                         eprintln!(
                             "progress: {done}/{total} branches done ({:.1} s)",
@@ -437,6 +437,9 @@ pub fn compute_branch(
     match result {
         Ok(branch) => {
             writer.finish(&branch, started.elapsed().as_secs_f64())?;
+            if quiet {
+                return Ok(branch);
+            }
             let _guard = log.lock();
             eprintln!(
                 "[{}] done: {} points, {} events, {}",

@@ -293,6 +293,13 @@ fn run_writes_csv_and_json_per_branch() {
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
+    // Quiet: nothing on stderr (no point, branch or progress lines), the summary on stdout.
+    assert!(
+        output.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(String::from_utf8_lossy(&output.stdout).contains("reached energy_max"));
     let csv = std::fs::read_to_string(out.join("b.csv")).unwrap();
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     for column in [
