@@ -94,6 +94,7 @@ pub fn cholesky_solve_in_place(l: MatRef<'_, f64>, b: &mut [f64], cols: usize) {
 }
 
 /// A dense LU factorisation with partial pivoting (the implicit integrators' stage systems).
+#[derive(Clone)]
 pub struct DenseLu(faer::linalg::solvers::PartialPivLu<f64>);
 
 impl DenseLu {
@@ -126,6 +127,7 @@ pub struct SparseLuPattern {
 }
 
 /// A numeric sparse LU factorisation on a [`SparseLuPattern`].
+#[derive(Clone)]
 pub struct SparseLu {
     symbolic: std::sync::Arc<faer::sparse::linalg::lu::SymbolicLu<usize>>,
     numeric: faer::sparse::linalg::lu::NumericLu<usize, f64>,

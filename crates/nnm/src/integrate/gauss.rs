@@ -33,7 +33,11 @@
 // Coefficients are quoted with all their digits.
 #![allow(clippy::excessive_precision)]
 
-use super::{Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tolerances};
+use std::sync::Arc;
+
+use super::{
+    Flow, IntegrationError, IntegrationStats, Integrator, LinearizedFlow, Steps, Tolerances,
+};
 use crate::linalg::{self, DenseLu, Mat, SparseLu, SparseLuPattern};
 use crate::model::{
     Block, BlockMut, ExplicitForm, MechanicalSystem, SparseMatrix, SparsityPattern,
@@ -142,23 +146,23 @@ pub struct GaussLegendre<'a, S: MechanicalSystem + ?Sized> {
     mass: SparseMatrix,
     identity: Vec<f64>,
     /// The sparse stage system, when the system gives its tangent on a pattern.
-    sparse: Option<SparseStages<'a>>,
+    sparse: Option<SparseStages>,
 }
 
 /// The stage Jacobian `J_ij = M δ_ij + h² Ā_ij K_t(X_i)` as a sparse matrix: its structure
 /// (every block on the union of `M`'s and `K_t`'s patterns), analysed once, and for each entry
 /// where its values come from.
-struct SparseStages<'a> {
-    /// `K_t`'s pattern (compressed rows).
-    tangent: &'a SparsityPattern,
+struct SparseStages {
+    /// `K_t`'s pattern (compressed rows), shared with the tangents a step records.
+    tangent: Arc<SparsityPattern>,
     lu: SparseLuPattern,
     /// Per entry of `J` in compressed-column order: its blocks `(i, j)`, its `M` value (on
     /// diagonal blocks) and its position in `K_t`'s values, if there is one.
     entries: Vec<(usize, usize, f64, Option<usize>)>,
 }
 
-impl<'a> SparseStages<'a> {
-    fn new(tangent: &'a SparsityPattern, mass: &SparseMatrix, stages: usize) -> Option<Self> {
+impl SparseStages {
+    fn new(tangent: &SparsityPattern, mass: &SparseMatrix, stages: usize) -> Option<Self> {
         let n = mass.dimension();
         let m_pattern = mass.pattern();
         // The union pattern, by columns (both patterns are those of symmetric matrices, but
@@ -192,14 +196,14 @@ impl<'a> SparseStages<'a> {
             }
         }
         Some(Self {
-            tangent,
+            tangent: Arc::new(tangent.clone()),
             lu: SparseLuPattern::new(stages * n, col_ptr, row_idx)?,
             entries,
         })
     }
 }
 
-impl SparseStages<'_> {
+impl SparseStages {
     /// The values of `J_ij = M δ_ij + scale(i, j) K_i` in the pattern's order, from the
     /// tangents `K_i` given on the system's pattern.
     fn values(&self, scale: impl Fn(usize, usize) -> f64, tangents: &[Vec<f64>]) -> Vec<f64> {
@@ -218,12 +222,114 @@ impl SparseStages<'_> {
 #[derive(Default)]
 struct StepCache {
     lu: Option<(StageLu, f64)>,
+    buffers: VariationalBuffers,
+}
+
+/// The work buffers of [`variational_step`]: `s n × k`, `n × k` and `k`.
+#[derive(Default)]
+struct VariationalBuffers {
     rhs: Vec<f64>,
     directions: Vec<f64>,
     row: Vec<f64>,
 }
 
+/// One step of the variational equations (eq. (32c)) for `k` directions `phi` (`2n × k`,
+/// column-major, in place): `J dW = -[K_t(X_i)(Φ_x + h c_i Φ_v)]_i` with the exact stage
+/// Jacobian `J` at the converged stages (factorised in `lu`) and the tangents it was built
+/// from, then `Φ_x += h Φ_v + h² Σ b̄_j dW_j`, `Φ_v += h Σ b_j dW_j`.
+fn variational_step(
+    method: &Collocation,
+    bbar: &[f64],
+    h: f64,
+    (lu, tangents): (&StageLu, &StageTangents),
+    phi: &mut [f64],
+    k: usize,
+    buffers: &mut VariationalBuffers,
+) {
+    let s = method.c.len();
+    let n = phi.len() / (2 * k);
+    let (m, n2) = (s * n, 2 * n);
+    // Every entry of both is written below: resized, not cleared.
+    let VariationalBuffers {
+        rhs,
+        directions,
+        row,
+    } = buffers;
+    rhs.resize(m * k, 0.0);
+    directions.resize(n * k, 0.0);
+    for i in 0..s {
+        let hc = h * method.c[i];
+        // Φ_x + h c_i Φ_v for every column, stored direction-fastest.
+        for col in 0..k {
+            let (px, pv) = phi[col * n2..(col + 1) * n2].split_at(n);
+            for r in 0..n {
+                directions[r * k + col] = px[r] + hc * pv[r];
+            }
+        }
+        tangents.apply_block(i, directions, k, row, |r, col, value| {
+            rhs[col * m + i * n + r] = -value;
+        });
+    }
+    lu.solve_in_place(rhs, k);
+    for col in 0..k {
+        let dw = &rhs[col * m..(col + 1) * m];
+        let (px, pv) = phi[col * n2..(col + 1) * n2].split_at_mut(n);
+        for r in 0..n {
+            let bbar: f64 = (0..s).map(|j| bbar[j] * dw[j * n + r]).sum();
+            let b: f64 = (0..s).map(|j| method.b[j] * dw[j * n + r]).sum();
+            px[r] += h * pv[r] + h * h * bbar;
+            pv[r] += h * b;
+        }
+    }
+}
+
+/// What a step keeps for later products with the monodromy: its size, its factorised stage
+/// Jacobian and the tangents `K_t(X_i)` it was built from.
+struct RecordedStep {
+    h: f64,
+    lu: StageLu,
+    tangents: StageTangents,
+}
+
+/// The linearised discrete flow of one collocation integration (docs/method.md eq. (38)):
+/// `Φ D` for any block `D` by [`variational_step`] over the recorded steps — the same
+/// arithmetic as sensitivities integrated with the motion — without integrating the motion
+/// again or factorising anything. Memory: per step one sparse LU of the `s n × s n` stage
+/// system and `s` tangents, O(n · steps) for a banded model.
+pub struct CollocationLinearization {
+    method: &'static Collocation,
+    bbar: Vec<f64>,
+    dofs: usize,
+    steps: Vec<RecordedStep>,
+}
+
+impl LinearizedFlow for CollocationLinearization {
+    fn dimension(&self) -> usize {
+        2 * self.dofs
+    }
+
+    fn apply(&self, directions: &[f64], columns: usize, out: &mut [f64]) {
+        out.copy_from_slice(directions);
+        if columns == 0 {
+            return;
+        }
+        let mut buffers = VariationalBuffers::default();
+        for step in &self.steps {
+            variational_step(
+                self.method,
+                &self.bbar,
+                step.h,
+                (&step.lu, &step.tangents),
+                out,
+                columns,
+                &mut buffers,
+            );
+        }
+    }
+}
+
 /// A factorised stage Jacobian.
+#[derive(Clone)]
 enum StageLu {
     Dense(DenseLu),
     Sparse(SparseLu),
@@ -240,12 +346,12 @@ impl StageLu {
 
 /// The tangents `K_t(X_i)` the stage Jacobian was built from: dense `n × n` each, or values on
 /// the system's pattern.
-enum StageTangents<'p> {
+enum StageTangents {
     Dense(Vec<f64>),
-    Sparse(&'p SparsityPattern, Vec<Vec<f64>>),
+    Sparse(Arc<SparsityPattern>, Vec<Vec<f64>>),
 }
 
-impl StageTangents<'_> {
+impl StageTangents {
     /// `K_t(X_i) D` for a block `D` of `k` directions stored direction-fastest (`D[r k + c]`),
     /// each entry handed to `out(row, column, value)`. On the sparse path one sweep over the
     /// tangent's rows serves every direction with contiguous, vectorisable updates: on a
@@ -402,7 +508,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         &self,
         states: &[f64],
         h: f64,
-    ) -> Result<(StageLu, StageTangents<'_>), IntegrationError> {
+    ) -> Result<(StageLu, StageTangents), IntegrationError> {
         let system = self.form.system();
         let s = self.method.c.len();
         let n = states.len() / s;
@@ -423,7 +529,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             let lu = sparse.lu.factorise(&values).ok_or_else(singular)?;
             return Ok((
                 StageLu::Sparse(lu),
-                StageTangents::Sparse(sparse.tangent, tangents),
+                StageTangents::Sparse(sparse.tangent.clone(), tangents),
             ));
         }
         let m = s * n;
@@ -463,6 +569,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         k: usize,
         cache: &mut StepCache,
         stats: &mut IntegrationStats,
+        record: Option<&mut Vec<RecordedStep>>,
     ) -> Result<(), IntegrationError> {
         let system = self.form.system();
         let n = z.len() / 2;
@@ -537,43 +644,28 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             }
             previous = size;
         }
-        if k > 0 {
-            // J dW = -[K_t(X_i) (Φ_x + h c_i Φ_v)]_i with the exact J at the converged stages.
+        if k > 0 || record.is_some() {
+            // The exact J at the converged stages: the variational step's matrix, kept for
+            // the next step's Newton, and recorded for later products with Φ.
             let (lu, tangents) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h)?;
             stats.tangent_evaluations += s;
-            let n2 = 2 * n;
-            // Every entry of both is written below: resized, not cleared.
-            let StepCache {
-                rhs,
-                directions,
-                row,
-                ..
-            } = cache;
-            rhs.resize(m * k, 0.0);
-            directions.resize(n * k, 0.0);
-            for i in 0..s {
-                let hc = h * self.method.c[i];
-                // Φ_x + h c_i Φ_v for every column, stored direction-fastest.
-                for col in 0..k {
-                    let (px, pv) = phi[col * n2..(col + 1) * n2].split_at(n);
-                    for r in 0..n {
-                        directions[r * k + col] = px[r] + hc * pv[r];
-                    }
-                }
-                tangents.apply_block(i, directions, k, row, |r, col, value| {
-                    rhs[col * m + i * n + r] = -value;
-                });
+            if k > 0 {
+                variational_step(
+                    self.method,
+                    &self.bbar,
+                    h,
+                    (&lu, &tangents),
+                    phi,
+                    k,
+                    &mut cache.buffers,
+                );
             }
-            lu.solve_in_place(rhs, k);
-            for col in 0..k {
-                let dw = &rhs[col * m..(col + 1) * m];
-                let (px, pv) = phi[col * n2..(col + 1) * n2].split_at_mut(n);
-                for r in 0..n {
-                    let bbar: f64 = (0..s).map(|j| self.bbar[j] * dw[j * n + r]).sum();
-                    let b: f64 = (0..s).map(|j| self.method.b[j] * dw[j * n + r]).sum();
-                    px[r] += h * pv[r] + h * h * bbar;
-                    pv[r] += h * b;
-                }
+            if let Some(record) = record {
+                record.push(RecordedStep {
+                    h,
+                    lu: lu.clone(),
+                    tangents,
+                });
             }
             cache.lu = Some((lu, h));
         }
@@ -677,7 +769,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             if 2 * k == steps {
                 middle = z.clone();
             }
-            self.step(&mut z, h, &mut [], 0, &mut cache, stats)?;
+            self.step(&mut z, h, &mut [], 0, &mut cache, stats, None)?;
             stats.steps += 1;
         }
         Ok((middle, z))
@@ -738,13 +830,16 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
     }
 }
 
-impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
-    fn flow(
+impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
+    /// [`Integrator::flow`], and with `record` each step's stage factorisation kept for
+    /// [`CollocationLinearization`].
+    fn integrate(
         &mut self,
         z0: &[f64],
         duration: f64,
         sensitivity: Option<Block<'_>>,
         steps: Steps<'_>,
+        mut record: Option<&mut Vec<RecordedStep>>,
     ) -> Result<Flow, IntegrationError> {
         let n2 = 2 * self.form.dofs();
         super::check_request(z0, n2, duration, sensitivity)?;
@@ -767,11 +862,19 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
         let mut t = 0.0;
         let mut cache = StepCache::default();
         for &h in &sizes {
-            self.step(&mut z, h, &mut phi, k, &mut cache, &mut stats)
-                .map_err(|e| match e {
-                    IntegrationError::NotFinite { .. } => IntegrationError::NotFinite { t },
-                    other => other,
-                })?;
+            self.step(
+                &mut z,
+                h,
+                &mut phi,
+                k,
+                &mut cache,
+                &mut stats,
+                record.as_deref_mut(),
+            )
+            .map_err(|e| match e {
+                IntegrationError::NotFinite { .. } => IntegrationError::NotFinite { t },
+                other => other,
+            })?;
             stats.steps += 1;
             t += h;
         }
@@ -782,6 +885,35 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
             steps: sizes,
             stats,
         })
+    }
+}
+
+impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
+    fn flow(
+        &mut self,
+        z0: &[f64],
+        duration: f64,
+        sensitivity: Option<Block<'_>>,
+        steps: Steps<'_>,
+    ) -> Result<Flow, IntegrationError> {
+        self.integrate(z0, duration, sensitivity, steps, None)
+    }
+
+    fn flow_linearized(
+        &mut self,
+        z0: &[f64],
+        duration: f64,
+        steps: Steps<'_>,
+    ) -> Result<(Flow, Arc<dyn LinearizedFlow>), IntegrationError> {
+        let mut record = Vec::new();
+        let flow = self.integrate(z0, duration, None, steps, Some(&mut record))?;
+        let linearization = CollocationLinearization {
+            method: self.method,
+            bbar: self.bbar.clone(),
+            dofs: self.form.dofs(),
+            steps: record,
+        };
+        Ok((flow, Arc::new(linearization)))
     }
 
     fn field(&self, z: &[f64], out: &mut [f64]) {

@@ -14,9 +14,11 @@ mod kernels;
 mod runge_kutta;
 mod tableau;
 
-pub use gauss::{Collocation, GAUSS4, GAUSS6, GaussLegendre, RADAU5};
+pub use gauss::{Collocation, CollocationLinearization, GAUSS4, GAUSS6, GaussLegendre, RADAU5};
 pub use runge_kutta::RungeKutta;
 pub use tableau::{DOP853, DOPRI5, ErrorEstimate, Tableau};
+
+use std::sync::Arc;
 
 use crate::model::Block;
 
@@ -32,6 +34,24 @@ pub trait Integrator {
         steps: Steps<'_>,
     ) -> Result<Flow, IntegrationError>;
 
+    /// Integrates like [`Integrator::flow`] (no sensitivities) and keeps what the discrete
+    /// flow's linearisation needs, so that `Φ(T) D` can be applied afterwards to any block `D`
+    /// without integrating the motion again: matrix-free shooting (docs/method.md §14) asks for
+    /// a few such products per Newton iteration instead of `Φ` along every direction. The
+    /// default refuses: an integrator must record its steps to offer it.
+    fn flow_linearized(
+        &mut self,
+        _z0: &[f64],
+        _duration: f64,
+        _steps: Steps<'_>,
+    ) -> Result<(Flow, Arc<dyn LinearizedFlow>), IntegrationError> {
+        Err(IntegrationError::InvalidInput(
+            "this integrator does not record its linearisation; matrix-free shooting needs \
+             an implicit collocation method (gauss4, gauss6, radau5)"
+                .into(),
+        ))
+    }
+
     /// The vector field `g(z)` (eq. (3)).
     fn field(&self, z: &[f64], out: &mut [f64]);
 
@@ -43,6 +63,16 @@ pub trait Integrator {
 
     /// Sets the local error tolerances (shooting scales the absolute one to the motion).
     fn set_tolerances(&mut self, tolerances: Tolerances);
+}
+
+/// The derivative of one integration's discrete flow map, `D ↦ Φ(T) D`, recorded by
+/// [`Integrator::flow_linearized`]: exactly what the sensitivities integrated with the motion
+/// would give along `D`.
+pub trait LinearizedFlow: Send + Sync {
+    /// The state dimension `2n`.
+    fn dimension(&self) -> usize;
+    /// `out = Φ(T) D` for `columns` directions `D` (`2n × columns`, column-major).
+    fn apply(&self, directions: &[f64], columns: usize, out: &mut [f64]);
 }
 
 /// The integration schemes available from settings and job files.
