@@ -223,6 +223,8 @@ impl SparseStages {
 struct StepCache {
     lu: Option<(StageLu, f64)>,
     buffers: VariationalBuffers,
+    /// Every step's stage factorisation, when the integration records its linearisation.
+    record: Option<Vec<RecordedStep>>,
 }
 
 /// The work buffers of [`variational_step`]: `s n × k`, `n × k` and `k`.
@@ -569,7 +571,6 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         k: usize,
         cache: &mut StepCache,
         stats: &mut IntegrationStats,
-        record: Option<&mut Vec<RecordedStep>>,
     ) -> Result<(), IntegrationError> {
         let system = self.form.system();
         let n = z.len() / 2;
@@ -644,7 +645,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             }
             previous = size;
         }
-        if k > 0 || record.is_some() {
+        if k > 0 || cache.record.is_some() {
             // The exact J at the converged stages: the variational step's matrix, kept for
             // the next step's Newton, and recorded for later products with Φ.
             let (lu, tangents) = self.stage_jacobian(&self.stage_states(x, v, &w, h), h)?;
@@ -660,7 +661,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                     &mut cache.buffers,
                 );
             }
-            if let Some(record) = record {
+            if let Some(record) = &mut cache.record {
                 record.push(RecordedStep {
                     h,
                     lu: lu.clone(),
@@ -769,7 +770,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             if 2 * k == steps {
                 middle = z.clone();
             }
-            self.step(&mut z, h, &mut [], 0, &mut cache, stats, None)?;
+            self.step(&mut z, h, &mut [], 0, &mut cache, stats)?;
             stats.steps += 1;
         }
         Ok((middle, z))
@@ -831,7 +832,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
 }
 
 impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
-    /// [`Integrator::flow`], and with `record` each step's stage factorisation kept for
+    /// [`Integrator::flow`]; with `record`, also each step's stage factorisation, for
     /// [`CollocationLinearization`].
     fn integrate(
         &mut self,
@@ -839,8 +840,8 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
         duration: f64,
         sensitivity: Option<Block<'_>>,
         steps: Steps<'_>,
-        mut record: Option<&mut Vec<RecordedStep>>,
-    ) -> Result<Flow, IntegrationError> {
+        record: bool,
+    ) -> Result<(Flow, Vec<RecordedStep>), IntegrationError> {
         let n2 = 2 * self.form.dofs();
         super::check_request(z0, n2, duration, sensitivity)?;
         let mut stats = IntegrationStats::default();
@@ -860,31 +861,27 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
         }
         let mut z = z0.to_vec();
         let mut t = 0.0;
-        let mut cache = StepCache::default();
+        let mut cache = StepCache {
+            record: record.then(Vec::new),
+            ..StepCache::default()
+        };
         for &h in &sizes {
-            self.step(
-                &mut z,
-                h,
-                &mut phi,
-                k,
-                &mut cache,
-                &mut stats,
-                record.as_deref_mut(),
-            )
-            .map_err(|e| match e {
-                IntegrationError::NotFinite { .. } => IntegrationError::NotFinite { t },
-                other => other,
-            })?;
+            self.step(&mut z, h, &mut phi, k, &mut cache, &mut stats)
+                .map_err(|e| match e {
+                    IntegrationError::NotFinite { .. } => IntegrationError::NotFinite { t },
+                    other => other,
+                })?;
             stats.steps += 1;
             t += h;
         }
-        Ok(Flow {
+        let flow = Flow {
             z,
             sensitivity: phi,
             columns: k,
             steps: sizes,
             stats,
-        })
+        };
+        Ok((flow, cache.record.unwrap_or_default()))
     }
 }
 
@@ -896,7 +893,7 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
         sensitivity: Option<Block<'_>>,
         steps: Steps<'_>,
     ) -> Result<Flow, IntegrationError> {
-        self.integrate(z0, duration, sensitivity, steps, None)
+        Ok(self.integrate(z0, duration, sensitivity, steps, false)?.0)
     }
 
     fn flow_linearized(
@@ -905,8 +902,7 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
         duration: f64,
         steps: Steps<'_>,
     ) -> Result<(Flow, Arc<dyn LinearizedFlow>), IntegrationError> {
-        let mut record = Vec::new();
-        let flow = self.integrate(z0, duration, None, steps, Some(&mut record))?;
+        let (flow, record) = self.integrate(z0, duration, None, steps, true)?;
         let linearization = CollocationLinearization {
             method: self.method,
             bbar: self.bbar.clone(),
