@@ -45,6 +45,7 @@ pub mod branch;
 pub mod continuation;
 pub mod floquet;
 pub mod integrate;
+pub mod krylov;
 pub(crate) mod linalg;
 pub mod model;
 pub mod modes;

@@ -1,0 +1,275 @@
+//! Krylov methods on linear operators given only by their products (docs/method.md §14):
+//! GMRES for the Newton corrections of matrix-free shooting, and Arnoldi for the Floquet
+//! multipliers of largest modulus. Both grow one orthonormal basis of
+//! `span{b, A b, A² b, …}` ([`Arnoldi`]): one piece serves the solver and the eigenvalues.
+//!
+//! No restarts: the operators met here (the monodromy of a model whose unresolved modes the
+//! integrator damps, minus the identity) are the identity plus an operator of small numerical
+//! rank, and the Krylov space exhausts that rank in a few dozen products.
+
+use crate::linalg::{self, Mat};
+
+/// An orthonormal Krylov basis `V` and the Hessenberg matrix `H` with `A V_k = V_{k+1} H`.
+#[derive(Debug, Clone)]
+pub struct Arnoldi {
+    /// Basis vectors, each of the operator's dimension (`k + 1` of them after `k` steps,
+    /// unless the space became invariant).
+    pub basis: Vec<Vec<f64>>,
+    /// Columns of `H`: column `j` holds `h_{0..=j+1, j}`.
+    columns: Vec<Vec<f64>>,
+    /// Whether `A V_k` lies in `span V_k` (the last step's new direction vanished).
+    pub invariant: bool,
+}
+
+impl Arnoldi {
+    /// A basis started at `b / ‖b‖`; `None` if `b` is zero or not finite.
+    pub fn new(b: &[f64]) -> Option<Self> {
+        let norm = linalg::norm(b);
+        if !(norm > 0.0 && norm.is_finite()) {
+            return None;
+        }
+        Some(Self {
+            basis: vec![b.iter().map(|v| v / norm).collect()],
+            columns: Vec::new(),
+            invariant: false,
+        })
+    }
+
+    /// Steps taken (columns of `H`).
+    pub fn steps(&self) -> usize {
+        self.columns.len()
+    }
+
+    /// One step: `w = A v_k`, orthogonalised against the basis by modified Gram–Schmidt,
+    /// twice (the second pass restores orthogonality lost to cancellation, which the
+    /// eigenvalues of `H` are sensitive to). Returns `h_{k+1,k} = ‖w‖` after orthogonalisation;
+    /// when it is below `breakdown` times the norm of `A v_k`, the space is invariant and no
+    /// vector is added.
+    pub fn step(&mut self, apply: &mut impl FnMut(&[f64], &mut [f64]), breakdown: f64) -> f64 {
+        let last = self.basis.last().expect("a basis has its start vector");
+        let mut w = vec![0.0; last.len()];
+        apply(last, &mut w);
+        let size = linalg::norm(&w);
+        let mut h = vec![0.0; self.basis.len() + 1];
+        for _ in 0..2 {
+            for (i, v) in self.basis.iter().enumerate() {
+                let c = linalg::dot(v, &w);
+                h[i] += c;
+                w.iter_mut().zip(v).for_each(|(w, v)| *w -= c * v);
+            }
+        }
+        let norm = linalg::norm(&w);
+        let k = self.basis.len();
+        h[k] = norm;
+        self.columns.push(h);
+        if !(norm > breakdown * size) || !norm.is_finite() {
+            self.invariant = true;
+            self.columns.last_mut().expect("just pushed")[k] = 0.0;
+            return 0.0;
+        }
+        self.basis.push(w.iter().map(|v| v / norm).collect());
+        norm
+    }
+
+    /// The square Hessenberg matrix `H_k = V_kᵀ A V_k` (`k × k`, `k` = steps): its
+    /// eigenvalues are the Ritz values.
+    pub fn hessenberg(&self) -> Mat<f64> {
+        let k = self.steps();
+        Mat::from_fn(k, k, |i, j| self.columns[j].get(i).copied().unwrap_or(0.0))
+    }
+
+    /// Coordinates of `x` in the first `k` basis vectors, `V_kᵀ x`.
+    pub fn coordinates(&self, x: &[f64]) -> Vec<f64> {
+        self.basis[..self.steps()]
+            .iter()
+            .map(|v| linalg::dot(v, x))
+            .collect()
+    }
+}
+
+/// The outcome of [`gmres`].
+#[derive(Debug, Clone)]
+pub struct GmresSolution {
+    /// The approximate solution.
+    pub x: Vec<f64>,
+    /// Operator products made.
+    pub iterations: usize,
+    /// `‖b − A x‖ / ‖b‖` (from the least-squares problem, exact in exact arithmetic).
+    pub relative_residual: f64,
+}
+
+/// GMRES (Saad & Schultz) for `A x = b` from `x = 0`, until `‖b − A x‖ ≤ tolerance ‖b‖` or
+/// `max_iterations` products: each step minimises the residual over the Krylov space, by
+/// Givens rotations of the Hessenberg columns as they come.
+pub fn gmres(
+    mut apply: impl FnMut(&[f64], &mut [f64]),
+    b: &[f64],
+    tolerance: f64,
+    max_iterations: usize,
+) -> GmresSolution {
+    let Some(mut arnoldi) = Arnoldi::new(b) else {
+        return GmresSolution {
+            x: vec![0.0; b.len()],
+            iterations: 0,
+            relative_residual: 0.0,
+        };
+    };
+    let beta = linalg::norm(b);
+    // The rotated Hessenberg R, the rotations, and the rotated right-hand side β e₁.
+    let mut r: Vec<Vec<f64>> = Vec::new();
+    let mut rotations: Vec<(f64, f64)> = Vec::new();
+    let mut g = vec![beta];
+    let mut residual = 1.0;
+    while arnoldi.steps() < max_iterations && residual > tolerance {
+        arnoldi.step(&mut apply, 1e-14);
+        let mut h = arnoldi.columns.last().expect("a step was taken").clone();
+        let k = h.len() - 1;
+        for (i, &(c, s)) in rotations.iter().enumerate() {
+            let (a, b) = (h[i], h[i + 1]);
+            h[i] = c * a + s * b;
+            h[i + 1] = -s * a + c * b;
+        }
+        let (a, b) = (h[k - 1], h[k]);
+        let rho = a.hypot(b);
+        let (c, s) = if rho > 0.0 {
+            (a / rho, b / rho)
+        } else {
+            (1.0, 0.0)
+        };
+        h[k - 1] = rho;
+        h[k] = 0.0;
+        rotations.push((c, s));
+        g.push(-s * g[k - 1]);
+        g[k - 1] *= c;
+        h.truncate(k);
+        r.push(h);
+        residual = g[k].abs() / beta;
+        if arnoldi.invariant {
+            break;
+        }
+    }
+    // Back substitution R y = g, then x = V y.
+    let k = r.len();
+    let mut y = vec![0.0; k];
+    for i in (0..k).rev() {
+        let sum: f64 = (i + 1..k).map(|j| r[j][i] * y[j]).sum();
+        y[i] = if r[i][i] != 0.0 {
+            (g[i] - sum) / r[i][i]
+        } else {
+            0.0
+        };
+    }
+    let mut x = vec![0.0; b.len()];
+    for (v, yi) in arnoldi.basis.iter().zip(&y) {
+        x.iter_mut().zip(v).for_each(|(x, v)| *x += yi * v);
+    }
+    GmresSolution {
+        x,
+        iterations: k,
+        relative_residual: residual,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A non-symmetric test operator: `I + low-rank` plus a tridiagonal coupling, applied
+    /// densely.
+    fn operator(n: usize) -> Mat<f64> {
+        Mat::from_fn(n, n, |i, j| {
+            let low_rank = ((i + 1) as f64).sin() * ((2 * j + 1) as f64).cos();
+            let band = match i as i64 - j as i64 {
+                0 => 2.0,
+                1 => -0.5,
+                -1 => 0.3,
+                _ => 0.0,
+            };
+            band + low_rank
+        })
+    }
+
+    fn apply(a: &Mat<f64>) -> impl FnMut(&[f64], &mut [f64]) + '_ {
+        move |x, out| {
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = (0..x.len()).map(|j| a[(i, j)] * x[j]).sum();
+            }
+        }
+    }
+
+    /// GMRES solves a non-symmetric system to its tolerance; the dense solve agrees.
+    #[test]
+    fn gmres_solves_a_nonsymmetric_system() {
+        let n = 40;
+        let a = operator(n);
+        let b: Vec<f64> = (0..n).map(|i| 1.0 + (i % 3) as f64).collect();
+        let solution = gmres(apply(&a), &b, 1e-12, n);
+        assert!(solution.relative_residual <= 1e-12);
+        let exact = linalg::least_squares(a.as_ref(), &b);
+        for (x, e) in solution.x.iter().zip(&exact) {
+            assert!((x - e).abs() < 1e-9 * (1.0 + e.abs()), "{x} vs {e}");
+        }
+        // Its own residual estimate is the true one.
+        let mut ax = vec![0.0; n];
+        apply(&a)(&solution.x, &mut ax);
+        let true_residual =
+            linalg::norm(&ax.iter().zip(&b).map(|(p, q)| p - q).collect::<Vec<_>>())
+                / linalg::norm(&b);
+        assert!(true_residual < 1e-11, "{true_residual}");
+    }
+
+    /// On `I + rank r`, GMRES converges in at most `r + 1` products (the minimal polynomial
+    /// has degree `r + 1`): the property matrix-free shooting relies on.
+    #[test]
+    fn gmres_converges_in_rank_plus_one_on_identity_plus_low_rank() {
+        let (n, rank) = (200, 6);
+        let u: Vec<Vec<f64>> = (0..rank)
+            .map(|k| (0..n).map(|i| ((i * (k + 3)) as f64 * 0.1).sin()).collect())
+            .collect();
+        let w: Vec<Vec<f64>> = (0..rank)
+            .map(|k| {
+                (0..n)
+                    .map(|i| ((i + k) as f64 * 0.37).cos() / n as f64)
+                    .collect()
+            })
+            .collect();
+        let product = |x: &[f64], out: &mut [f64]| {
+            out.copy_from_slice(x);
+            for (u, w) in u.iter().zip(&w) {
+                let c = linalg::dot(w, x);
+                out.iter_mut().zip(u).for_each(|(o, u)| *o += c * u);
+            }
+        };
+        let b: Vec<f64> = (0..n).map(|i| (i as f64).sqrt()).collect();
+        let solution = gmres(product, &b, 1e-12, n);
+        assert!(solution.iterations <= rank + 1, "{}", solution.iterations);
+        assert!(solution.relative_residual <= 1e-12);
+    }
+
+    /// The Ritz values of a full Arnoldi run are the eigenvalues; the basis is orthonormal.
+    #[test]
+    fn arnoldi_ritz_values_are_the_eigenvalues_when_complete() {
+        let n = 12;
+        let a = operator(n);
+        let start: Vec<f64> = (0..n).map(|i| 1.0 / (1.0 + i as f64)).collect();
+        let mut arnoldi = Arnoldi::new(&start).unwrap();
+        let mut product = apply(&a);
+        while arnoldi.steps() < n && !arnoldi.invariant {
+            arnoldi.step(&mut product, 1e-12);
+        }
+        let mut ritz = linalg::eigenvalues(arnoldi.hessenberg().as_ref()).unwrap();
+        let mut exact = linalg::eigenvalues(a.as_ref()).unwrap();
+        let key = |z: &linalg::Complex| (z.0 * 1e6).round() * 1e7 + z.1;
+        ritz.sort_by(|p, q| key(p).total_cmp(&key(q)));
+        exact.sort_by(|p, q| key(p).total_cmp(&key(q)));
+        for (r, e) in ritz.iter().zip(&exact) {
+            assert!((r.0 - e.0).hypot(r.1 - e.1) < 1e-9, "{r:?} vs {e:?}");
+        }
+        for (i, v) in arnoldi.basis.iter().enumerate() {
+            for (j, w) in arnoldi.basis.iter().enumerate() {
+                let expected = if i == j { 1.0 } else { 0.0 };
+                assert!((linalg::dot(v, w) - expected).abs() < 1e-12);
+            }
+        }
+    }
+}
