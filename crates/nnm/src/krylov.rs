@@ -1,4 +1,4 @@
-//! Krylov methods on linear operators given only by their products (docs/method.md §14):
+//! Krylov methods on linear operators given only by their products (docs/method.md §15):
 //! GMRES for the Newton corrections of matrix-free shooting, and Arnoldi for the Floquet
 //! multipliers of largest modulus. Both grow one orthonormal basis of
 //! `span{b, A b, A² b, …}` ([`Arnoldi`]): one piece serves the solver and the eigenvalues.
@@ -9,15 +9,18 @@
 
 use crate::linalg::{self, Mat};
 
-/// An orthonormal Krylov basis `V` and the Hessenberg matrix `H` with `A V_k = V_{k+1} H`.
+/// An orthonormal basis `V` grown by applying `A` to its vectors in turn, and the projected
+/// matrix `H` with `A V_k = V H` (to the directions dropped as negligible): Arnoldi's process,
+/// optionally seeded with several vectors (then `H` is block Hessenberg). Seeding lets the
+/// Floquet analysis hold the trivial directions exactly in the basis.
 #[derive(Debug, Clone)]
 pub struct Arnoldi {
-    /// Basis vectors, each of the operator's dimension (`k + 1` of them after `k` steps,
-    /// unless the space became invariant).
+    /// Basis vectors, each of the operator's dimension.
     pub basis: Vec<Vec<f64>>,
-    /// Columns of `H`: column `j` holds `h_{0..=j+1, j}`.
+    /// Columns of `H`: column `j` holds `vᵢ · A v_j` for the vectors there were at step `j`,
+    /// and the norm of the new direction (0 when none was added).
     columns: Vec<Vec<f64>>,
-    /// Whether `A V_k` lies in `span V_k` (the last step's new direction vanished).
+    /// Whether every basis vector has been processed and `A V` lies in `span V`.
     pub invariant: bool,
 }
 
@@ -35,43 +38,70 @@ impl Arnoldi {
         })
     }
 
+    /// A basis seeded with `vectors`, orthonormalised in order (one that depends on the
+    /// previous ones to `1e-12` of its norm is skipped); `None` if none is usable.
+    pub fn seeded(vectors: &[&[f64]]) -> Option<Self> {
+        let mut arnoldi = Self::new(vectors.first()?)?;
+        for v in &vectors[1..] {
+            let mut w = v.to_vec();
+            let size = linalg::norm(&w);
+            arnoldi.orthogonalise(&mut w);
+            let norm = linalg::norm(&w);
+            if norm > 1e-12 * size {
+                arnoldi.basis.push(w.iter().map(|x| x / norm).collect());
+            }
+        }
+        Some(arnoldi)
+    }
+
+    /// Removes from `w` its components along the basis, by modified Gram–Schmidt twice (the
+    /// second pass restores orthogonality lost to cancellation, which the eigenvalues of `H`
+    /// are sensitive to); returns the coefficients.
+    fn orthogonalise(&self, w: &mut [f64]) -> Vec<f64> {
+        let mut h = vec![0.0; self.basis.len()];
+        for _ in 0..2 {
+            for (i, v) in self.basis.iter().enumerate() {
+                let c = linalg::dot(v, w);
+                h[i] += c;
+                w.iter_mut().zip(v).for_each(|(w, v)| *w -= c * v);
+            }
+        }
+        h
+    }
+
     /// Steps taken (columns of `H`).
     pub fn steps(&self) -> usize {
         self.columns.len()
     }
 
-    /// One step: `w = A v_k`, orthogonalised against the basis by modified Gram–Schmidt,
-    /// twice (the second pass restores orthogonality lost to cancellation, which the
-    /// eigenvalues of `H` are sensitive to). Returns `h_{k+1,k} = ‖w‖` after orthogonalisation;
-    /// when it is below `breakdown` times the norm of `A v_k`, the space is invariant and no
-    /// vector is added.
-    pub fn step(&mut self, apply: &mut impl FnMut(&[f64], &mut [f64]), breakdown: f64) -> f64 {
-        let last = self.basis.last().expect("a basis has its start vector");
-        let mut w = vec![0.0; last.len()];
-        apply(last, &mut w);
+    /// One step: `w = A v_k` for the next unprocessed basis vector `v_k`, orthogonalised
+    /// against the basis. Returns the norm of what is left, and adds it as a new vector unless
+    /// it is below `breakdown` times the norm of `A v_k` or below `floor` (then `A v_k` lies
+    /// in the span, to that accuracy); the space is invariant when every vector has been
+    /// processed.
+    pub fn step(
+        &mut self,
+        apply: &mut impl FnMut(&[f64], &mut [f64]),
+        breakdown: f64,
+        floor: f64,
+    ) -> f64 {
+        let next = &self.basis[self.columns.len()];
+        let mut w = vec![0.0; next.len()];
+        apply(next, &mut w);
         let size = linalg::norm(&w);
-        let mut h = vec![0.0; self.basis.len() + 1];
-        for _ in 0..2 {
-            for (i, v) in self.basis.iter().enumerate() {
-                let c = linalg::dot(v, &w);
-                h[i] += c;
-                w.iter_mut().zip(v).for_each(|(w, v)| *w -= c * v);
-            }
-        }
+        let mut h = self.orthogonalise(&mut w);
         let norm = linalg::norm(&w);
-        let k = self.basis.len();
-        h[k] = norm;
+        let added = norm > breakdown * size && norm > floor && norm.is_finite();
+        h.push(if added { norm } else { 0.0 });
         self.columns.push(h);
-        if !(norm > breakdown * size) || !norm.is_finite() {
-            self.invariant = true;
-            self.columns.last_mut().expect("just pushed")[k] = 0.0;
-            return 0.0;
+        if added {
+            self.basis.push(w.iter().map(|v| v / norm).collect());
         }
-        self.basis.push(w.iter().map(|v| v / norm).collect());
-        norm
+        self.invariant = self.columns.len() == self.basis.len();
+        if added { norm } else { 0.0 }
     }
 
-    /// The square Hessenberg matrix `H_k = V_kᵀ A V_k` (`k × k`, `k` = steps): its
+    /// The square (block) Hessenberg matrix `H_k = V_kᵀ A V_k` (`k × k`, `k` = steps): its
     /// eigenvalues are the Ritz values.
     pub fn hessenberg(&self) -> Mat<f64> {
         let k = self.steps();
@@ -121,7 +151,7 @@ pub fn gmres(
     let mut g = vec![beta];
     let mut residual = 1.0;
     while arnoldi.steps() < max_iterations && residual > tolerance {
-        arnoldi.step(&mut apply, 1e-14);
+        arnoldi.step(&mut apply, 1e-14, 0.0);
         let mut h = arnoldi.columns.last().expect("a step was taken").clone();
         let k = h.len() - 1;
         for (i, &(c, s)) in rotations.iter().enumerate() {
@@ -255,7 +285,7 @@ mod tests {
         let mut arnoldi = Arnoldi::new(&start).unwrap();
         let mut product = apply(&a);
         while arnoldi.steps() < n && !arnoldi.invariant {
-            arnoldi.step(&mut product, 1e-12);
+            arnoldi.step(&mut product, 1e-12, 0.0);
         }
         let mut ritz = linalg::eigenvalues(arnoldi.hessenberg().as_ref()).unwrap();
         let mut exact = linalg::eigenvalues(a.as_ref()).unwrap();

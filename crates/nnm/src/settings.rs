@@ -92,6 +92,9 @@ pub struct ShootingSettings {
     /// Shoot over half a period when the system is odd (checked at sample states; default
     /// true). Every point's full-period residual is still checked.
     pub half_period: bool,
+    /// Dense Jacobian and monodromy, or matrix-free Newton–Krylov (docs/method.md §15);
+    /// default: chosen by size ([`crate::shooting::Formulation::Auto`]).
+    pub formulation: crate::shooting::Formulation,
 }
 
 /// Time integration.
@@ -156,6 +159,7 @@ impl Default for ShootingSettings {
             phase: crate::shooting::PhaseCondition::ZeroVelocity,
             jacobian: crate::shooting::JacobianMethod::Sensitivity,
             half_period: true,
+            formulation: crate::shooting::Formulation::Auto,
         }
     }
 }
@@ -201,6 +205,7 @@ impl Settings {
         "phase",
         "jacobian",
         "half_period",
+        "formulation",
         "integrator",
         "integration_factor",
         "stability_tolerance",

@@ -78,23 +78,31 @@ fn from_state_refuses_bad_input() {
 }
 
 /// A model above the dense modal limit gets only its lowest modes, which do not span the
-/// state space: starting a shooting branch from them is refused with an error saying so,
-/// rather than solving a residual projected on 20 modes as if it were the whole one.
+/// state space: its branch is shot matrix-free (docs/method.md §14), and the dense formulation,
+/// asked for explicitly, is refused with an error saying so at the first evaluation — rather
+/// than solving a residual projected on 20 modes as if it were the whole one.
 #[test]
-fn large_model_start_is_refused_without_a_complete_basis() {
+fn large_model_is_shot_matrix_free_and_dense_is_refused_without_a_complete_basis() {
+    use nnm::continuation::ContinuationProblem;
+    use nnm::shooting::Formulation;
     let beam = nnm::model::CantileverBeam {
         elements: 1100,
         ..nnm::model::CantileverBeam::default()
     }
     .build()
     .unwrap();
-    let error = Start::from_mode(&beam, 0).unwrap_err();
+    let start = Start::from_mode(&beam, 0).unwrap();
+    assert!(!start.complete_basis);
+    let settings = nnm::Settings::default();
+    assert!(start.shooting(&beam, &settings).is_matrix_free());
+    let mut dense = settings.clone();
+    dense.shooting.formulation = Formulation::Dense;
+    let mut shooting = start.shooting(&beam, &dense);
+    assert!(!shooting.is_matrix_free());
+    let (u0, _) = start.first_guess(&shooting);
+    let error = shooting.evaluate(&u0).unwrap_err().to_string();
     assert!(
-        matches!(
-            error,
-            nnm::shooting::StartError::IncompleteBasis { dofs: 2200, .. }
-        ),
+        error.contains("every linear mode") && error.contains("matrix-free"),
         "{error}"
     );
-    assert!(error.to_string().contains("every linear mode"), "{error}");
 }

@@ -51,6 +51,31 @@ impl Floquet {
     }
 }
 
+impl Floquet {
+    /// The same analysis without the non-trivial multipliers of modulus below `floor`.
+    ///
+    /// Why: a damping integrator (Radau IIA) maps the modes it does not resolve to
+    /// multipliers near 0 — artefacts of the scheme with no stability content, since a
+    /// conservative orbit's multipliers lie on the unit circle or in reciprocal pairs. An
+    /// Arnoldi analysis finds a varying number of them from point to point, and the pairing
+    /// and the event tests (which compare the pair counts of consecutive points) must not see
+    /// that variation.
+    pub fn without_damped(&self, floor: f64, tolerance: f64) -> Floquet {
+        if self.multipliers.len() < 2 {
+            return self.clone();
+        }
+        let trivial: Vec<Complex> = self.trivial.iter().map(|&i| self.multipliers[i]).collect();
+        let rest: Vec<Complex> = self
+            .multipliers
+            .iter()
+            .enumerate()
+            .filter(|(i, z)| !self.trivial.contains(i) && modulus(**z) >= floor)
+            .map(|(_, z)| *z)
+            .collect();
+        assemble(rest, trivial, tolerance)
+    }
+}
+
 /// Computes the multipliers of a monodromy matrix: the plug-in point for the eigen-solver
 /// (dense full spectrum today; multipliers of largest modulus by Arnoldi for large models).
 pub trait FloquetSolver: Send + Sync {

@@ -293,7 +293,7 @@ struct RecordedStep {
     tangents: StageTangents,
 }
 
-/// The linearised discrete flow of one collocation integration (docs/method.md eq. (38)):
+/// The linearised discrete flow of one collocation integration (docs/method.md eq. (72)):
 /// `Φ D` for any block `D` by [`variational_step`] over the recorded steps — the same
 /// arithmetic as sensitivities integrated with the motion — without integrating the motion
 /// again or factorising anything. Memory: per step one sparse LU of the `s n × s n` stage

@@ -36,7 +36,7 @@ pub trait Integrator {
 
     /// Integrates like [`Integrator::flow`] (no sensitivities) and keeps what the discrete
     /// flow's linearisation needs, so that `Φ(T) D` can be applied afterwards to any block `D`
-    /// without integrating the motion again: matrix-free shooting (docs/method.md §14) asks for
+    /// without integrating the motion again: matrix-free shooting (docs/method.md §15) asks for
     /// a few such products per Newton iteration instead of `Φ` along every direction. The
     /// default refuses: an integrator must record its steps to offer it.
     fn flow_linearized(

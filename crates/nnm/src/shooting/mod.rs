@@ -19,16 +19,20 @@
 //! alike whatever its frequency and the time unit; the convergence test (eq. (19)) is applied
 //! in the same metric: `‖W H‖ / ‖W z0‖ < eps`.
 
+mod matrix_free;
 mod monodromy;
 mod point;
 mod start;
 
+pub use matrix_free::{MATRIX_FREE_DOFS, MatrixFreeJacobian};
 pub use point::BranchPoint;
 pub use start::{Start, StartError};
 
 use crate::continuation::Linearization;
 use crate::floquet::{DenseFloquet, FloquetSolver};
-use crate::integrate::{Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tolerances};
+use crate::integrate::{
+    Flow, IntegrationError, IntegrationMethod, IntegrationStats, Integrator, Steps, Tolerances,
+};
 use crate::linalg::{self, Mat};
 use crate::model::{Block, BlockMut, MechanicalSystem};
 use crate::settings::Settings;
@@ -56,6 +60,24 @@ pub enum JacobianMethod {
     FiniteDifference,
 }
 
+/// How the Newton corrections and the monodromy are computed (docs/method.md §15).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Formulation {
+    /// Matrix-free above [`MATRIX_FREE_DOFS`] dofs when the integrator is an implicit
+    /// collocation method, and whenever the modal basis is incomplete (a large model's lowest
+    /// modes only); dense otherwise.
+    #[default]
+    Auto,
+    /// Unknowns in the elastic modal basis, the Jacobian and monodromy as dense matrices from
+    /// sensitivities along every unknown direction (docs/method.md §2–7).
+    Dense,
+    /// Unknowns the whole weighted initial state, Newton corrections by GMRES and multipliers
+    /// by Arnoldi on monodromy–vector products: O(n · steps) memory, no modal basis beyond the
+    /// starting mode.
+    MatrixFree,
+}
+
 /// One evaluation of the shooting equations.
 #[derive(Debug, Clone)]
 pub struct Evaluation {
@@ -75,6 +97,8 @@ pub struct Evaluation {
     pub flow_derivative: Vec<f64>,
     /// Accepted step sizes (replayed by finite differences).
     pub steps: Vec<f64>,
+    /// The Jacobian as an operator (matrix-free formulation; `jacobian` is then empty).
+    pub operator: Option<std::sync::Arc<MatrixFreeJacobian>>,
 }
 
 impl Linearization for Evaluation {
@@ -89,6 +113,9 @@ impl Linearization for Evaluation {
     /// Dense Householder QR of the bordered Jacobian (the Moore–Penrose solution of the
     /// consistent overdetermined system).
     fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
+        if let Some(operator) = &self.operator {
+            return operator.solve(border, rhs, border_rhs);
+        }
         let (rows, m) = (self.jacobian.nrows(), self.jacobian.ncols());
         let a = Mat::from_fn(rows + 1, m, |i, j| {
             if i < rows {
@@ -124,6 +151,9 @@ pub enum ShootingError {
     /// The eigenvalues of the monodromy could not be computed.
     #[error("Floquet analysis failed: {0}")]
     Floquet(#[from] linalg::LinalgError),
+    /// The formulation cannot shoot this model (the text says why and what to change).
+    #[error("{0}")]
+    Unsupported(String),
 }
 
 /// Work counters of the shooting problem.
@@ -135,6 +165,8 @@ pub struct ShootingStats {
     pub integrations: usize,
     /// Their work, summed (finite-difference runs included).
     pub integration: IntegrationStats,
+    /// Monodromy–vector products of the matrix-free formulation (GMRES and Arnoldi).
+    pub krylov_products: usize,
 }
 
 /// The shooting problem of one branch.
@@ -171,6 +203,10 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     /// Called after every evaluation (a Newton iteration, or a trial point of an event's
     /// location), for progress within a long point.
     progress: Option<ProgressHook<'a>>,
+    /// The weighted coordinates of the matrix-free formulation; `None`: dense.
+    matrix_free: Option<matrix_free::MatrixFree>,
+    /// Why this problem cannot be evaluated, if it cannot (reported by the first evaluation).
+    unsupported: Option<String>,
 }
 
 /// A progress hook: called with every evaluation.
@@ -246,6 +282,8 @@ pub struct ShootingSetup {
     pub half_period: bool,
     /// The first phase reference (the start's state).
     pub phase_reference: Vec<f64>,
+    /// Whether `basis` holds every elastic mode (the dense formulation needs them all).
+    pub complete_basis: bool,
 }
 
 impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
@@ -261,6 +299,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             amplitude_scale,
             half_period,
             phase_reference,
+            complete_basis,
         } = setup;
         let n = system.dofs();
         let r = basis.len() / n;
@@ -285,6 +324,42 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         }
         let tolerance = settings.continuation.tolerance;
         let method = settings.integration.integrator.resolve(system, omega_ref);
+        let records = matches!(
+            method,
+            IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 | IntegrationMethod::Radau5
+        );
+        let (matrix_free, unsupported) = match settings.shooting.formulation {
+            Formulation::MatrixFree => (true, None),
+            Formulation::Auto if !complete_basis || (records && n > MATRIX_FREE_DOFS) => {
+                (true, None)
+            }
+            Formulation::Dense if !complete_basis => (
+                false,
+                Some(format!(
+                    "the dense formulation needs every linear mode, but only the lowest {r} of {n} were computed; set formulation = \"matrix-free\""
+                )),
+            ),
+            _ => (false, None),
+        };
+        let (matrix_free, unsupported) = if matrix_free {
+            match matrix_free::MatrixFree::new(
+                system,
+                amplitude_scale * omega_ref,
+                &phase_reference,
+            ) {
+                Ok(free) => (Some(free), unsupported),
+                Err(why) => (None, Some(why)),
+            }
+        } else {
+            (None, unsupported)
+        };
+        let (phase, state_basis) = if matrix_free.is_some() {
+            // The whole state is unknown: the time shift is fixed by the flow-orthogonal
+            // condition.
+            (PhaseCondition::FlowOrthogonal, Vec::new())
+        } else {
+            (phase, state_basis)
+        };
         let relative =
             method.relative_tolerance(tolerance, settings.integration.integration_factor);
         let tolerances = Tolerances {
@@ -317,7 +392,14 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             stability_tolerance: settings.stability.stability_tolerance,
             stats: ShootingStats::default(),
             progress: None,
+            matrix_free,
+            unsupported,
         }
+    }
+
+    /// Whether the problem is shot matrix-free ([`Formulation`]).
+    pub fn is_matrix_free(&self) -> bool {
+        self.matrix_free.is_some()
     }
 
     /// Calls `hook` after every evaluation: a long point (a large model's Newton iterations
@@ -347,6 +429,9 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
 
     /// Number of unknowns `m + 1`.
     pub fn unknowns(&self) -> usize {
+        if self.matrix_free.is_some() {
+            return 2 * self.n + 1;
+        }
         self.state_basis.len() / (2 * self.n) + 1
     }
 
@@ -363,6 +448,9 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
     /// `z0 = S q` for unknowns `u = (q, τ)`.
     pub fn initial_state(&self, u: &[f64]) -> Vec<f64> {
         let n2 = 2 * self.n;
+        if let Some(free) = &self.matrix_free {
+            return free.state(&u[..n2]);
+        }
         let mut z0 = vec![0.0; n2];
         for (c, &q) in u[..u.len() - 1].iter().enumerate() {
             for (z, s) in z0.iter_mut().zip(&self.state_basis[c * n2..(c + 1) * n2]) {
@@ -375,6 +463,11 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
     /// Unknowns `u` whose state is the projection of `z0` on the unknown directions.
     pub fn unknowns_from_state(&self, z0: &[f64], period: f64) -> Vec<f64> {
         let (n, r_u) = (self.n, self.r_u);
+        if let Some(free) = &self.matrix_free {
+            let mut u = free.unknowns(z0);
+            u.push(period / self.period_ref);
+            return u;
+        }
         let project = |x: &[f64]| -> Vec<f64> {
             (0..r_u)
                 .map(|c| linalg::dot(&self.mass_basis[c * n..(c + 1) * n], x))
@@ -401,8 +494,16 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         directions: Option<Block<'_>>,
         steps: Steps<'_>,
     ) -> Result<Flow, IntegrationError> {
-        // Absolute tolerance from the motion's displacement scale (velocities weighted by
-        // 1/ω_ref, see `Tolerances`).
+        self.scale_tolerances(z0);
+        let flow = self.integrator.flow(z0, period, directions, steps)?;
+        self.stats.integrations += 1;
+        self.stats.integration += flow.stats;
+        Ok(flow)
+    }
+
+    /// Sets the integrator's absolute tolerance from the motion's displacement scale
+    /// (velocities weighted by 1/ω_ref, see `Tolerances`).
+    fn scale_tolerances(&mut self, z0: &[f64]) {
         let n = self.n;
         let scale = z0.iter().enumerate().fold(0.0f64, |m, (i, v)| {
             m.max(if i < n {
@@ -414,10 +515,6 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         let mut tolerances = self.integrator.tolerances();
         tolerances.absolute = tolerances.relative * scale.max(f64::MIN_POSITIVE);
         self.integrator.set_tolerances(tolerances);
-        let flow = self.integrator.flow(z0, period, directions, steps)?;
-        self.stats.integrations += 1;
-        self.stats.integration += flow.stats;
-        Ok(flow)
     }
 
     /// `z(T)` and `Φ(T) D` for a block of directions `D` (`2n × k`), by the configured method.
@@ -478,6 +575,12 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         u: &[f64],
         phase_reference: &[f64],
     ) -> Result<Evaluation, ShootingError> {
+        if let Some(why) = &self.unsupported {
+            return Err(ShootingError::Unsupported(why.clone()));
+        }
+        if self.matrix_free.is_some() {
+            return self.evaluate_matrix_free(u, phase_reference);
+        }
         let n2 = 2 * self.n;
         let m = u.len() - 1;
         let period = u[m] * self.period_ref;
@@ -532,14 +635,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
                 jacobian[(r2, c)] = linalg::dot(&g_ref, s);
             }
         }
-        self.stats.evaluations += 1;
-        if let Some(hook) = self.progress.as_mut() {
-            hook(&EvaluationProgress {
-                evaluations: self.stats.evaluations,
-                relative_residual,
-                period,
-            });
-        }
+        self.finish_evaluation(relative_residual, period);
         Ok(Evaluation {
             z0,
             z_end: flow.z,
@@ -549,7 +645,20 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             jacobian,
             flow_derivative: derivative,
             steps: flow.steps,
+            operator: None,
         })
+    }
+
+    /// Counts an evaluation and reports it to the progress hook.
+    fn finish_evaluation(&mut self, relative_residual: f64, period: f64) {
+        self.stats.evaluations += 1;
+        if let Some(hook) = self.progress.as_mut() {
+            hook(&EvaluationProgress {
+                evaluations: self.stats.evaluations,
+                relative_residual,
+                period,
+            });
+        }
     }
 }
 

@@ -95,8 +95,17 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             .zip(&evaluation.z0)
             .map(|(a, b)| a - b)
             .collect();
-        Ok(linalg::norm(&self.weighted_modal(&mismatch))
-            / linalg::norm(&self.weighted_modal(&evaluation.z0)).max(f64::MIN_POSITIVE))
+        Ok(linalg::norm(&self.residual_coordinates(&mismatch))
+            / linalg::norm(&self.residual_coordinates(&evaluation.z0)).max(f64::MIN_POSITIVE))
+    }
+
+    /// The coordinates the convergence test measures a state in: [`Self::weighted_modal`],
+    /// or `W z` in the matrix-free formulation (docs/method.md eq. (73)).
+    fn residual_coordinates(&self, z: &[f64]) -> Vec<f64> {
+        match &self.matrix_free {
+            Some(free) => free.weigh(z),
+            None => self.weighted_modal(z),
+        }
     }
 
     /// Coordinates of a state in the modal basis of [`Shooting::monodromy`]:

@@ -5,6 +5,13 @@ use crate::continuation::{ContinuationProblem, Detail, Solution};
 use crate::floquet::Floquet;
 use crate::model::MechanicalSystem;
 
+/// Multipliers below this modulus are left out of a matrix-free point's Floquet analysis
+/// (docs/method.md eq. (76)):
+/// the modes the damping integrator does not resolve ([`Floquet::without_damped`]). A
+/// genuinely unstable pair keeps its member outside the circle, so nothing of the verdict
+/// is lost unless `|μ| > 1000`.
+pub const DAMPED_MULTIPLIER: f64 = 1e-3;
+
 /// A converged point of a branch.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct BranchPoint {
@@ -83,21 +90,32 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
         if detail == Detail::Light {
             return Ok(point);
         }
-        let mut monodromy = self.monodromy(evaluation)?;
         // The trivial pair spans the flow direction g(z0) and the direction along the family:
         // deflate it rather than guess it from the spectrum (degenerate partners also sit
         // near +1, docs/method.md §13).
-        let mut flow_direction = self.modal_coordinates(&self.field(&evaluation.z0));
-        let mut family_direction = self.modal_coordinates(&self.initial_state(&solution.tangent));
-        self.energy_scaling(&mut monodromy, [&mut flow_direction, &mut family_direction]);
+        let (monodromy, [flow_direction, family_direction], class) = if self.is_matrix_free() {
+            let (projected, directions) =
+                self.matrix_free_monodromy(evaluation, &solution.tangent)?;
+            (projected, directions, None)
+        } else {
+            let mut monodromy = self.monodromy(evaluation)?;
+            let mut flow_direction = self.modal_coordinates(&self.field(&evaluation.z0));
+            let mut family_direction =
+                self.modal_coordinates(&self.initial_state(&solution.tangent));
+            self.energy_scaling(&mut monodromy, [&mut flow_direction, &mut family_direction]);
+            let class = self.unknown_block();
+            (monodromy, [flow_direction, family_direction], class)
+        };
         let directions = [flow_direction.as_slice(), family_direction.as_slice()];
-        let class = self.unknown_block();
-        let floquet = self.floquet.analyse(
+        let mut floquet = self.floquet.analyse(
             &monodromy,
             directions,
             class.as_deref(),
             self.stability_tolerance,
         )?;
+        if self.is_matrix_free() {
+            floquet = floquet.without_damped(DAMPED_MULTIPLIER, self.stability_tolerance);
+        }
         if !point.energy.is_finite() {
             return Err(ShootingError::NonFiniteEnergy(point.energy));
         }

@@ -40,6 +40,9 @@ pub struct Start {
     /// whose motions are never at rest everywhere at once needs
     /// [`PhaseCondition::FlowOrthogonal`]; so does a start from a state with velocities).
     pub phase: Option<PhaseCondition>,
+    /// Whether `basis` spans every elastic mode; a large model's lowest modes only are enough
+    /// for the matrix-free formulation (docs/method.md §15), not for the dense one.
+    pub complete_basis: bool,
 }
 
 /// Why a branch could not be started.
@@ -63,20 +66,6 @@ pub enum StartError {
     /// The linear modal analysis failed.
     #[error(transparent)]
     Modes(#[from] ModesError),
-    /// The modes given do not span the state space (a large model's lowest modes only): the
-    /// shooting residual is taken in modal coordinates (docs/method.md eq. (17)) and would
-    /// then miss whatever lies outside them.
-    #[error(
-        "the shooting needs every linear mode, but {given} of {dofs} were computed (models above {limit} dofs get only their lowest modes; the matrix-free path for them is not built yet)"
-    )]
-    IncompleteBasis {
-        /// Modes given.
-        given: usize,
-        /// Degrees of freedom of the model.
-        dofs: usize,
-        /// Size above which only the lowest modes are computed.
-        limit: usize,
-    },
 }
 
 impl Start {
@@ -110,7 +99,6 @@ impl Start {
             return Err(StartError::RigidMode(index));
         }
         let n = system.dofs();
-        complete_basis(modes, n)?;
         // Rigid-body modes are left out of the unknowns only when the nonlinear forces leave
         // them alone; otherwise they are kept like any other mode.
         let amplitude_scale = weakly_nonlinear_amplitude(system, &mode.shape, 1.0);
@@ -157,6 +145,7 @@ impl Start {
             half_period: true,
             pin: None,
             phase: None,
+            complete_basis: modes.len() >= n,
         })
     }
 
@@ -182,7 +171,6 @@ impl Start {
             )));
         }
         let modes = linear_modes(system)?;
-        complete_basis(&modes, n)?;
         let elastic: Vec<&LinearMode> = modes.iter().filter(|m| !m.rigid).collect();
         let basis: Vec<f64> = elastic.iter().flat_map(|m| m.shape.clone()).collect();
         let shape_norm = linalg::norm(&z0[..n]);
@@ -205,6 +193,7 @@ impl Start {
             half_period: !moving,
             pin: None,
             phase: moving.then_some(PhaseCondition::FlowOrthogonal),
+            complete_basis: modes.len() >= n,
         })
     }
 
@@ -228,6 +217,7 @@ impl Start {
                 && phase == PhaseCondition::ZeroVelocity
                 && is_odd(system, self.amplitude_scale),
             phase_reference: self.z0.clone(),
+            complete_basis: self.complete_basis,
         };
         Shooting::new(system, setup, settings)
     }
@@ -252,18 +242,6 @@ impl Start {
         };
         (u0, pin)
     }
-}
-
-/// Refuses a modal basis that does not span the `n` dofs (a large model's lowest modes).
-fn complete_basis(modes: &[LinearMode], n: usize) -> Result<(), StartError> {
-    if modes.len() < n {
-        return Err(StartError::IncompleteBasis {
-            given: modes.len(),
-            dofs: n,
-            limit: crate::modes::DENSE_MODES_LIMIT,
-        });
-    }
-    Ok(())
 }
 
 /// `M B` for the columns of `basis`.

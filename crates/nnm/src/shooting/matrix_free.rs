@@ -1,0 +1,404 @@
+//! Matrix-free Newton–Krylov shooting for large models (docs/method.md §15).
+//!
+//! The dense formulation propagates the variational equations along every unknown direction
+//! (`n` of them) and factorises a `2n × n` Jacobian: O(n² · steps) work and O(n²) memory per
+//! Newton iteration, and a full modal basis. Here the unknowns are the whole initial state in
+//! weighted coordinates, `u = (W z0 / A, τ)`, the integration records its linearised discrete
+//! flow ([`crate::integrate::LinearizedFlow`]), and each Newton correction is a GMRES solve
+//! whose products `Φ(T) d` replay the recorded steps — one sparse triangular solve a step,
+//! no factorisation, no re-integration. Floquet multipliers come from an Arnoldi process on
+//! the same products ([`crate::krylov`]).
+//!
+//! **Why it converges in few products.** The implicit integrator of a finite-element model
+//! (Radau IIA, L-stable) damps the modes it does not resolve: over a period, their block of
+//! `Φ` is numerically zero. The periodicity operator `Φ − I` is then `−I` plus an operator of
+//! the rank of the resolved modes (a handful on a beam), and GMRES converges in about that
+//! rank plus the three borders (phase, period, arclength) — tested in `krylov`. A symplectic
+//! integrator keeps every mode on the unit circle and would need ~`2n` products: matrix-free
+//! shooting is meant for the damping collocation.
+//!
+//! **Square bordered system.** Energy conservation makes one periodicity row redundant; the
+//! dense path solves the overdetermined system in least squares. GMRES needs a square one, so
+//! an extra unknown `λ` multiplies the left null vector of the periodicity rows,
+//! `ℓ = W⁻¹ ∇E(z0)` (eq. (74)): the system `[J ℓ; bᵀ 0] (x, λ) = (r, c)` is regular, and `λ`
+//! absorbs the inconsistent part of `r` (zero at a solution).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use super::{Evaluation, Shooting, ShootingError};
+use crate::integrate::{LinearizedFlow, Steps};
+use crate::krylov::{Arnoldi, gmres};
+use crate::linalg::{self, Mat};
+use crate::model::{Block, BlockMut, MechanicalSystem};
+
+/// Above this many dofs, [`super::Formulation::Auto`] shoots matrix-free when the integrator
+/// records its linearisation (the implicit collocation methods). Measured on the ECL beam to
+/// +20%: see README "Performance".
+pub const MATRIX_FREE_DOFS: usize = 150;
+
+/// Relative residual GMRES solves each Newton correction to: well below the shooting
+/// tolerance, so that Newton's convergence is that of the exact Jacobian.
+const GMRES_TOLERANCE: f64 = 1e-11;
+
+/// Most GMRES products per solve (memory: this many vectors of `2n + 2`).
+const MAX_GMRES: usize = 400;
+
+/// Most Arnoldi steps of a Floquet analysis, and the new direction's norm below which the
+/// Krylov space counts as invariant (the rest of the spectrum is damped to below it).
+const MAX_ARNOLDI: usize = 160;
+const ARNOLDI_INVARIANT: f64 = 1e-10;
+
+/// The coordinates of matrix-free shooting: `y = W z` with `W = diag(√K_ii, √M_ii)` (Jacobi
+/// weights of the tangent stiffness at rest and of the mass, eq. (73)), and the unknowns
+/// `u_y = y / A`.
+///
+/// Why these weights: each dof's displacement and velocity then count by the energy they
+/// carry on their own, whatever their units (a beam's translations and rotations), in O(n),
+/// where exact energy coordinates would need factors of `K` and `M`. The products' GMRES
+/// convergence does not depend on them (it is set by the rank of the undamped part); the
+/// residual's meaning and the arclength's scaling do.
+#[derive(Debug)]
+pub(super) struct MatrixFree {
+    weights: Arc<Vec<f64>>,
+    unit: f64,
+    /// The phase condition's row on `u_y` (eq. (75)): `ŝᵀ u_y = 0` says the starting
+    /// mode's modal velocity `φᵀ M v0` vanishes — the orbit starts at a turning point of the
+    /// mode it continues. `None`: the flow-orthogonal condition (a start without
+    /// displacement).
+    section: Option<Vec<f64>>,
+    /// Operator products made by GMRES and Arnoldi, shared with every evaluation's operator.
+    pub(super) products: Arc<AtomicUsize>,
+}
+
+impl MatrixFree {
+    /// The weights of `system`, with `A = unit`; `Err` with the reason when a diagonal entry
+    /// of `K` or `M` is not positive (a rigid-body mode or a dof without stiffness).
+    pub(super) fn new<S: MechanicalSystem + ?Sized>(
+        system: &S,
+        unit: f64,
+        start: &[f64],
+    ) -> Result<Self, String> {
+        let n = system.dofs();
+        let stiffness = diagonal_of_tangent(system);
+        let mass = diagonal_of_mass(system);
+        let mut weights = Vec::with_capacity(2 * n);
+        for (diagonal, name) in [(&stiffness, "K"), (&mass, "M")] {
+            for (i, &d) in diagonal.iter().enumerate() {
+                if !(d > 0.0 && d.is_finite()) {
+                    return Err(format!(
+                        "matrix-free shooting needs a positive diagonal of {name}, but {name}[{i},{i}] = {d}"
+                    ));
+                }
+                weights.push(d.sqrt());
+            }
+        }
+        // φᵀ M v = Σ (M φ)_i v_i = Σ (M φ)_i A u_(n+i) / W_(n+i).
+        let mut m_phi = vec![0.0; n];
+        system.mass().apply(&start[..n], 1, &mut m_phi);
+        let mut row = vec![0.0; 2 * n];
+        for i in 0..n {
+            row[n + i] = m_phi[i] / weights[n + i];
+        }
+        let norm = linalg::norm(&row);
+        let section = (norm > 0.0 && norm.is_finite()).then(|| {
+            row.iter_mut().for_each(|r| *r /= norm);
+            row
+        });
+        Ok(Self {
+            weights: Arc::new(weights),
+            unit,
+            section,
+            products: Arc::new(AtomicUsize::new(0)),
+        })
+    }
+
+    /// `W z`.
+    pub(super) fn weigh(&self, z: &[f64]) -> Vec<f64> {
+        z.iter()
+            .zip(self.weights.iter())
+            .map(|(z, w)| z * w)
+            .collect()
+    }
+
+    /// `u_y = W z / A`.
+    pub(super) fn unknowns(&self, z: &[f64]) -> Vec<f64> {
+        z.iter()
+            .zip(self.weights.iter())
+            .map(|(z, w)| z * w / self.unit)
+            .collect()
+    }
+
+    /// `z = A W⁻¹ u_y`.
+    pub(super) fn state(&self, y: &[f64]) -> Vec<f64> {
+        y.iter()
+            .zip(self.weights.iter())
+            .map(|(y, w)| self.unit * y / w)
+            .collect()
+    }
+}
+
+/// `K_t(0)`'s diagonal: from its pattern's values when the system gives them, otherwise one
+/// product per dof.
+fn diagonal_of_tangent<S: MechanicalSystem + ?Sized>(system: &S) -> Vec<f64> {
+    let n = system.dofs();
+    let rest = vec![0.0; n];
+    if let Some(pattern) = system.tangent_pattern() {
+        let mut values = vec![0.0; pattern.nonzeros()];
+        system.tangent_values(&rest, &mut values);
+        return (0..n)
+            .map(|i| pattern.position(i, i).map_or(0.0, |p| values[p]))
+            .collect();
+    }
+    let mut unit = vec![0.0; n];
+    let mut column = vec![0.0; n];
+    (0..n)
+        .map(|i| {
+            unit[i] = 1.0;
+            system.tangent_stiffness(
+                &rest,
+                Block::new(&unit, n, 1, n),
+                BlockMut::new(&mut column, n, 1, n),
+            );
+            unit[i] = 0.0;
+            column[i]
+        })
+        .collect()
+}
+
+/// `M`'s diagonal, from the mass operator's sparse entries or diagonal when it has them.
+fn diagonal_of_mass<S: MechanicalSystem + ?Sized>(system: &S) -> Vec<f64> {
+    let n = system.dofs();
+    let mass = system.mass();
+    if let Some(diagonal) = mass.diagonal() {
+        return diagonal.to_vec();
+    }
+    if let Some(sparse) = mass.sparse() {
+        let pattern = sparse.pattern();
+        return (0..n)
+            .map(|i| pattern.position(i, i).map_or(0.0, |p| sparse.values()[p]))
+            .collect();
+    }
+    let mut unit = vec![0.0; n];
+    let mut column = vec![0.0; n];
+    (0..n)
+        .map(|i| {
+            unit[i] = 1.0;
+            mass.apply(&unit, 1, &mut column);
+            unit[i] = 0.0;
+            column[i]
+        })
+        .collect()
+}
+
+/// The linearisation of one matrix-free evaluation: products with the Jacobian of the
+/// shooting rows `[W H / A; phase]` with respect to `u = (u_y, τ)`, and its bordered solves.
+pub struct MatrixFreeJacobian {
+    flow: Arc<dyn LinearizedFlow>,
+    weights: Arc<Vec<f64>>,
+    /// `+1` over half a period (`H = z(T/2) + z0`), `−1` over a full one.
+    sign: f64,
+    /// `∂(W H / A)/∂τ`.
+    period_column: Vec<f64>,
+    /// `∂(phase)/∂u_y` (eq. (75)).
+    phase_row: Vec<f64>,
+    /// `ℓ = W⁻¹ ∇E(z0)`, normalised: the periodicity rows' left null vector (eq. (74)).
+    null_column: Vec<f64>,
+    products: Arc<AtomicUsize>,
+}
+
+impl std::fmt::Debug for MatrixFreeJacobian {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MatrixFreeJacobian")
+            .field("dimension", &self.weights.len())
+            .finish()
+    }
+}
+
+impl MatrixFreeJacobian {
+    /// `out = W Φ W⁻¹ y`: the flow's derivative over the shot horizon in `y` coordinates.
+    fn flow_product(&self, y: &[f64], out: &mut [f64]) {
+        let d: Vec<f64> = y
+            .iter()
+            .zip(self.weights.iter())
+            .map(|(y, w)| y / w)
+            .collect();
+        self.flow.apply(&d, 1, out);
+        out.iter_mut()
+            .zip(self.weights.iter())
+            .for_each(|(o, w)| *o *= w);
+        self.products.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// The monodromy over the full period in `y` coordinates: over half a period of an odd
+    /// system, the half-period map twice (docs/method.md §2).
+    fn monodromy_product(&self, y: &[f64], out: &mut [f64]) {
+        self.flow_product(y, out);
+        if self.sign > 0.0 {
+            let half = out.to_vec();
+            self.flow_product(&half, out);
+        }
+    }
+
+    /// Solves `[J ℓ; bᵀ 0] (x, λ) = (rhs, c)` by GMRES and returns `x` (eq. (74)).
+    pub(super) fn solve(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
+        let n2 = self.weights.len();
+        let size = n2 + 2;
+        let apply = |x: &[f64], out: &mut [f64]| {
+            let (y, tau, lambda) = (&x[..n2], x[n2], x[n2 + 1]);
+            self.flow_product(y, &mut out[..n2]);
+            for i in 0..n2 {
+                out[i] +=
+                    self.sign * y[i] + self.period_column[i] * tau + self.null_column[i] * lambda;
+            }
+            out[n2] = linalg::dot(&self.phase_row, y);
+            out[n2 + 1] = linalg::dot(border, &x[..n2 + 1]);
+        };
+        let mut b = Vec::with_capacity(size);
+        b.extend_from_slice(rhs);
+        b.push(border_rhs);
+        let solution = gmres(apply, &b, GMRES_TOLERANCE, MAX_GMRES);
+        let mut x = solution.x;
+        x.truncate(n2 + 1);
+        x
+    }
+}
+
+impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
+    /// The shooting equations at `u = (u_y, τ)` by one integration that records its
+    /// linearisation: rows `[W H / A; ĝ_refᵀ (u_y − u_ref)]`, and the operator of their
+    /// Jacobian.
+    pub(super) fn evaluate_matrix_free(
+        &mut self,
+        u: &[f64],
+        phase_reference: &[f64],
+    ) -> Result<Evaluation, ShootingError> {
+        let free = self.matrix_free.as_ref().expect("matrix-free formulation");
+        let n2 = 2 * self.n;
+        let period = u[n2] * self.period_ref;
+        if !(period.is_finite() && period > 0.0) {
+            return Err(ShootingError::NonPositivePeriod(period));
+        }
+        let z0 = free.state(&u[..n2]);
+        let (horizon, sign) = if self.half_period {
+            (0.5 * period, 1.0)
+        } else {
+            (period, -1.0)
+        };
+        self.scale_tolerances(&z0);
+        let (flow, linearization) = self.integrator.flow_linearized(
+            &z0,
+            horizon,
+            Steps::Adaptive {
+                first_step: self.first_step,
+            },
+        )?;
+        self.first_step = flow.steps.first().copied();
+        self.stats.integrations += 1;
+        self.stats.integration += flow.stats;
+        let free = self.matrix_free.as_ref().expect("matrix-free formulation");
+        let h: Vec<f64> = (0..n2).map(|i| flow.z[i] + sign * z0[i]).collect();
+        let mut rows = free.unknowns(&h);
+        let relative_residual = linalg::norm(&rows) / linalg::norm(&u[..n2]).max(f64::MIN_POSITIVE);
+        // ∂H/∂τ = (horizon/τ) g(z(horizon)).
+        let mut g_end = vec![0.0; n2];
+        self.integrator.field(&flow.z, &mut g_end);
+        g_end.iter_mut().for_each(|g| *g *= horizon / u[n2]);
+        let period_column = free.unknowns(&g_end);
+        // Phase: on the section, or orthogonal to the flow at the reference.
+        let (phase_row, phase_value) = match &free.section {
+            Some(section) => (section.clone(), linalg::dot(section, &u[..n2])),
+            None => {
+                let mut g_ref = vec![0.0; n2];
+                self.integrator.field(phase_reference, &mut g_ref);
+                let mut row = free.weigh(&g_ref);
+                let norm = linalg::norm(&row).max(f64::MIN_POSITIVE);
+                row.iter_mut().for_each(|g| *g /= norm);
+                let reference = free.unknowns(phase_reference);
+                let offset: Vec<f64> = (0..n2).map(|i| u[i] - reference[i]).collect();
+                let value = linalg::dot(&row, &offset);
+                (row, value)
+            }
+        };
+        rows.push(phase_value);
+        let null_column = self.energy_gradient_direction(&z0);
+        let free = self.matrix_free.as_ref().expect("matrix-free formulation");
+        let operator = MatrixFreeJacobian {
+            flow: linearization,
+            weights: free.weights.clone(),
+            sign,
+            period_column,
+            phase_row,
+            null_column,
+            products: free.products.clone(),
+        };
+        self.stats.krylov_products = free.products.load(Ordering::Relaxed);
+        self.finish_evaluation(relative_residual, period);
+        Ok(Evaluation {
+            z0,
+            z_end: flow.z,
+            period,
+            relative_residual,
+            rows,
+            jacobian: Mat::zeros(0, 0),
+            flow_derivative: Vec::new(),
+            steps: flow.steps,
+            operator: Some(Arc::new(operator)),
+        })
+    }
+
+    /// `W⁻¹ ∇E(z0)` normalised, `∇E = (f_int(x0), M v0)`: the left null vector of the
+    /// periodicity rows in `W H / A` coordinates (eq. (74)).
+    fn energy_gradient_direction(&self, z0: &[f64]) -> Vec<f64> {
+        let n = self.n;
+        let free = self.matrix_free.as_ref().expect("matrix-free formulation");
+        let mut gradient = vec![0.0; 2 * n];
+        self.system.internal_force(&z0[..n], &mut gradient[..n]);
+        self.system.mass().apply(&z0[n..], 1, &mut gradient[n..]);
+        gradient
+            .iter_mut()
+            .zip(free.weights.iter())
+            .for_each(|(g, w)| *g /= w);
+        let norm = linalg::norm(&gradient).max(f64::MIN_POSITIVE);
+        gradient.iter_mut().for_each(|g| *g /= norm);
+        gradient
+    }
+
+    /// The Floquet problem of a converged matrix-free point: the Hessenberg matrix of an
+    /// Arnoldi process on the monodromy (`W Φ(T) W⁻¹`), run until its Krylov space is
+    /// invariant to [`ARNOLDI_INVARIANT`] (the damped rest of the spectrum), and the flow and
+    /// family directions in its basis — what [`crate::floquet::FloquetSolver`] takes in place
+    /// of the dense monodromy. Its eigenvalues are the multipliers of largest modulus: a
+    /// conservative orbit is unstable iff one of them is off the unit circle.
+    pub(super) fn matrix_free_monodromy(
+        &self,
+        evaluation: &Evaluation,
+        tangent: &[f64],
+    ) -> Result<(Mat<f64>, [Vec<f64>; 2]), ShootingError> {
+        let operator = evaluation
+            .operator
+            .as_ref()
+            .expect("a matrix-free evaluation");
+        let free = self.matrix_free.as_ref().expect("matrix-free formulation");
+        let n2 = 2 * self.n;
+        let flow_direction = free.weigh(&self.field(&evaluation.z0));
+        let family_direction = tangent[..n2].to_vec();
+        // The basis holds both trivial directions exactly (the deflation needs them in it),
+        // then a fixed mixture of every coordinate that reaches every undamped mode.
+        let mixture: Vec<f64> = (0..n2)
+            .map(|i| ((i as f64) * 0.618_033_988_75 + 0.5).sin())
+            .collect();
+        let mut arnoldi = Arnoldi::seeded(&[&flow_direction, &family_direction, &mixture])
+            .ok_or(ShootingError::Floquet(linalg::LinalgError::NonFinite))?;
+        let mut product = |y: &[f64], out: &mut [f64]| operator.monodromy_product(y, out);
+        let limit = MAX_ARNOLDI.min(n2);
+        while !arnoldi.invariant && arnoldi.steps() < limit {
+            arnoldi.step(&mut product, 1e-14, ARNOLDI_INVARIANT);
+        }
+        let directions = [
+            arnoldi.coordinates(&flow_direction),
+            arnoldi.coordinates(&family_direction),
+        ];
+        Ok((arnoldi.hessenberg(), directions))
+    }
+}
