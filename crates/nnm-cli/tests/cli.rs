@@ -1,28 +1,11 @@
 //! The command-line contract (README, "Command line"): outputs, and one-line errors with a non-zero exit for
 //! bad input (never a panic).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Command;
 
-fn nnm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nnm"))
-        .args(args)
-        .output()
-        .expect("the nnm binary runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nnm-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, file: &str, text: &str) -> String {
-    let path = dir.join(file);
-    std::fs::write(&path, text).unwrap();
-    path.to_str().unwrap().to_string()
-}
+mod common;
+use common::{nnm, scratch, write};
 
 /// Runs `nnm run JOB` expecting failure; returns the single stderr line.
 fn expect_error(job_text: &str, expected: &str) {
