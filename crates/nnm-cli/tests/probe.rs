@@ -6,7 +6,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
 mod common;
-use common::{nnm, scratch, write};
+use common::{LONG_BRANCH, csv_rows, nnm, scratch, wait_for_rows, write};
 
 const MODEL: &str = "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n[[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\ncoefficient = 0.5\n";
 
@@ -168,11 +168,9 @@ fn stop_reason(json: &Path) -> String {
 #[test]
 fn ctrl_c_writes_what_was_finished() {
     let dir = scratch("sigint");
-    let path = write(
-        &dir,
-        "job.toml",
-        "[model]\nfamily = \"bladed-disk\"\n[[branch]]\nname = \"long\"\nmode = \"0,6\"\nmax_points = 1000\nmax_step = 0.02\n[[branch]]\nname = \"later\"\nmode = \"1,5\"\nenergy_max = 10.0\n",
-    );
+    let text =
+        format!("{LONG_BRANCH}[[branch]]\nname = \"later\"\nmode = \"1,5\"\nenergy_max = 10.0\n");
+    let path = write(&dir, "job.toml", &text);
     let out = dir.join("out");
     let child = Command::new(env!("CARGO_BIN_EXE_nnm"))
         .args(["run", &path, "--out", out.to_str().unwrap(), "--quiet"])
@@ -181,12 +179,7 @@ fn ctrl_c_writes_what_was_finished() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let rows =
-        |p: &Path| std::fs::read_to_string(p).map_or(0, |s| s.lines().count().saturating_sub(1));
-    let started = std::time::Instant::now();
-    while rows(&out.join("long.csv")) < 5 && started.elapsed().as_secs() < 120 {
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
+    wait_for_rows(&out.join("long.csv"), 5);
     let sent = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
@@ -223,7 +216,7 @@ fn ctrl_c_writes_what_was_finished() {
     assert_eq!(doc["stop_reason"], "interrupted");
     assert_eq!(
         doc["points"].as_array().unwrap().len(),
-        rows(&out.join("long.csv"))
+        csv_rows(&out.join("long.csv"))
     );
     assert!(!out.join("later.csv").exists());
     assert!(out.join("fep.png").exists() && out.join("fep.svg").exists());

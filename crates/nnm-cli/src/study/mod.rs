@@ -99,17 +99,13 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
     report.bifurcations(&events);
 
     // 5. The 3:1 tongue, with sensitivities, checked against (1,12).
+    let tongue_with =
+        |jacobian, dir: &Path| tongue::continue_tongue(structure, &modes, settings, jacobian, dir);
     let tongue = section(
         &mut report,
         out,
         clock,
-        tongue::continue_tongue(
-            structure,
-            &modes,
-            settings,
-            JacobianMethod::Sensitivity,
-            out,
-        ),
+        tongue_with(JacobianMethod::Sensitivity, out),
     )?;
     let junction = section(
         &mut report,
@@ -127,17 +123,12 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
         report.cost_comparison_skipped();
     } else {
         eprintln!("study: the tongue again with the finite-difference Jacobian (slow) ...");
+        let fd_out = out.join("finite-difference");
         let fd = section(
             &mut report,
             out,
             clock,
-            tongue::continue_tongue(
-                structure,
-                &modes,
-                settings,
-                JacobianMethod::FiniteDifference,
-                &out.join("finite-difference"),
-            ),
+            tongue_with(JacobianMethod::FiniteDifference, &fd_out),
         )?;
         report.cost_comparison(&tongue, &fd);
     }

@@ -24,3 +24,19 @@ pub fn write(dir: &Path, file: &str, text: &str) -> String {
     std::fs::write(&path, text).unwrap();
     path.to_str().unwrap().to_string()
 }
+
+/// A bladed-disk branch of a thousand small steps: still running when a test interrupts it.
+pub const LONG_BRANCH: &str = "[model]\nfamily = \"bladed-disk\"\n[[branch]]\nname = \"long\"\nmode = \"0,6\"\nmax_points = 1000\nmax_step = 0.02\n";
+
+/// Data rows of a CSV file (0 while it does not exist).
+pub fn csv_rows(path: &Path) -> usize {
+    std::fs::read_to_string(path).map_or(0, |s| s.lines().count().saturating_sub(1))
+}
+
+/// Waits (up to two minutes) until `path` has `rows` data rows.
+pub fn wait_for_rows(path: &Path, rows: usize) {
+    let started = std::time::Instant::now();
+    while csv_rows(path) < rows && started.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
