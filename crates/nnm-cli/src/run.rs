@@ -186,18 +186,16 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     unfinished(&outcomes, &early)
 }
 
-/// The run's verdict, most serious first: interrupted (Ctrl-C), a branch failed, a branch
-/// stopped before its limit; `Ok` when every branch reached its limit.
+/// The run's verdict, most serious first: interrupted (Ctrl-C stopped or skipped a branch; one
+/// that came after the last branch ended changed nothing), a branch failed, a branch stopped
+/// before its limit; `Ok` when every branch reached its limit.
 fn unfinished(outcomes: &[Outcome], early: &[String]) -> Result<()> {
-    let finished = outcomes
-        .iter()
-        .filter(|o| {
-            o.result
-                .as_ref()
-                .is_ok_and(|b| b.stop != StopReason::Interrupted)
-        })
-        .count();
-    if interrupt::requested() {
+    let cut_short = |o: &&Outcome| match &o.result {
+        Ok(b) => b.stop == StopReason::Interrupted,
+        Err(e) => e.is::<NotStarted>(),
+    };
+    let finished = outcomes.len() - outcomes.iter().filter(cut_short).count();
+    if finished < outcomes.len() {
         return Err(Unfinished::Interrupted(format!(
             "interrupted: {finished} of {} branches finished; the summary and files hold what was computed",
             outcomes.len()

@@ -180,12 +180,7 @@ fn ctrl_c_writes_what_was_finished() {
         .spawn()
         .unwrap();
     wait_for_rows(&out.join("long.csv"), 5);
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-    let output = child.wait_with_output().unwrap();
+    let output = interrupt(child);
     let stderr = stderr_of(&output);
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert_eq!(output.status.code(), Some(130), "{stderr}");
@@ -315,4 +310,50 @@ fn threads_are_reported_as_asked_and_the_junction_is_no_interrupt() {
         stop_reason(&out.join("tongue-0-6.json")),
         "reached the junction with (1,12)"
     );
+}
+
+/// Ctrl-C during `nnm study` (here in the tongue): the report is written with the sections
+/// finished and says where it stopped, the tongue's files say "interrupted", exit code 130.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_during_a_study_writes_its_report_so_far() {
+    let dir = scratch("study-sigint");
+    let path = write(
+        &dir,
+        "job.toml",
+        "[model]\nfamily = \"bladed-disk\"\n[settings]\nenergy_max = 10.0\n",
+    );
+    let out = dir.join("out");
+    let child = Command::new(env!("CARGO_BIN_EXE_nnm"))
+        .args(["study", &path, "--out", out.to_str().unwrap(), "--quick"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for_rows(&out.join("tongue-0-6.csv"), 5);
+    let output = interrupt(child);
+    let stderr = stderr_of(&output);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.contains("error: interrupted: the study stopped;"),
+        "{stderr}"
+    );
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for heading in ["## 2. Backbones", "## Interrupted"] {
+        assert!(report.contains(heading), "{report}");
+    }
+    assert!(!report.contains("## 5."), "{report}");
+    assert_eq!(stop_reason(&out.join("tongue-0-6.json")), "interrupted");
+    assert!(!out.join(".nnm.lock").exists());
+}
+
+/// Sends SIGINT to `child` and collects its output.
+#[cfg(unix)]
+fn interrupt(child: std::process::Child) -> Output {
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    child.wait_with_output().unwrap()
 }
