@@ -1,10 +1,8 @@
 //! The command-line contract (README, "Command line"): outputs, and one-line errors with a non-zero exit for
 //! bad input (never a panic).
 
-use std::process::Command;
-
 mod common;
-use common::{LONG_BRANCH, csv_rows, nnm, scratch, wait_for_rows, write};
+use common::{LONG_BRANCH, csv_rows, nnm, scratch, spawn, wait_for_rows, write};
 
 /// Runs `nnm run JOB` expecting failure; returns the single stderr line.
 fn expect_error(job_text: &str, expected: &str) {
@@ -322,12 +320,7 @@ fn interrupted_run_keeps_every_point() {
     let dir = scratch("interrupt");
     let job = write(&dir, "job.toml", LONG_BRANCH);
     let out = dir.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_nnm"))
-        .args(["run", &job, "--out", out.to_str().unwrap(), "--quiet"])
-        .stderr(std::process::Stdio::null())
-        .stdout(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = spawn(&["run", &job, "--out", out.to_str().unwrap(), "--quiet"]);
     let csv_path = out.join("long.csv");
     wait_for_rows(&csv_path, 5);
     child.kill().unwrap();

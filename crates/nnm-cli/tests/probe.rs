@@ -3,12 +3,15 @@
 //! "Command line"), Ctrl-C that still writes what was finished, one run per output folder.
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 
 mod common;
-use common::{LONG_BRANCH, csv_rows, nnm, scratch, wait_for_rows, write};
+use common::{LONG_BRANCH, csv_rows, nnm, scratch, spawn, wait_for_rows, write};
 
 const MODEL: &str = "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n[[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\ncoefficient = 0.5\n";
+
+/// The bladed-disk study's job: the paper's model, backbones to E = 10.
+const STUDY_JOB: &str = "[model]\nfamily = \"bladed-disk\"\n[settings]\nenergy_max = 10.0\n";
 
 /// A branch of the two-DOF model with `keys` (one per line).
 fn job(name: &str, mode: usize, keys: &str) -> String {
@@ -172,13 +175,8 @@ fn ctrl_c_writes_what_was_finished() {
         format!("{LONG_BRANCH}[[branch]]\nname = \"later\"\nmode = \"1,5\"\nenergy_max = 10.0\n");
     let path = write(&dir, "job.toml", &text);
     let out = dir.join("out");
-    let child = Command::new(env!("CARGO_BIN_EXE_nnm"))
-        .args(["run", &path, "--out", out.to_str().unwrap(), "--quiet"])
-        .args(["--threads", "1"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let out_dir = out.to_str().unwrap();
+    let child = spawn(&["run", &path, "--out", out_dir, "--quiet", "--threads", "1"]);
     wait_for_rows(&out.join("long.csv"), 5);
     let output = interrupt(child);
     let stderr = stderr_of(&output);
@@ -272,11 +270,7 @@ fn an_output_folder_is_used_by_one_run_at_a_time() {
 #[test]
 fn threads_are_reported_as_asked_and_the_junction_is_no_interrupt() {
     let dir = scratch("threads");
-    let path = write(
-        &dir,
-        "job.toml",
-        "[model]\nfamily = \"bladed-disk\"\n[settings]\nenergy_max = 10.0\n",
-    );
+    let path = write(&dir, "job.toml", STUDY_JOB);
     let out = dir.join("out");
     for command in ["run", "study"] {
         let output = nnm(&[
@@ -318,18 +312,9 @@ fn threads_are_reported_as_asked_and_the_junction_is_no_interrupt() {
 #[test]
 fn ctrl_c_during_a_study_writes_its_report_so_far() {
     let dir = scratch("study-sigint");
-    let path = write(
-        &dir,
-        "job.toml",
-        "[model]\nfamily = \"bladed-disk\"\n[settings]\nenergy_max = 10.0\n",
-    );
+    let path = write(&dir, "job.toml", STUDY_JOB);
     let out = dir.join("out");
-    let child = Command::new(env!("CARGO_BIN_EXE_nnm"))
-        .args(["study", &path, "--out", out.to_str().unwrap(), "--quick"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = spawn(&["study", &path, "--out", out.to_str().unwrap(), "--quick"]);
     wait_for_rows(&out.join("tongue-0-6.csv"), 5);
     let output = interrupt(child);
     let stderr = stderr_of(&output);

@@ -1,7 +1,7 @@
 //! Running the `nnm` binary from the command-line tests: each test file includes this module.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
 
 pub fn nnm(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_nnm"))
@@ -39,4 +39,14 @@ pub fn wait_for_rows(path: &Path, rows: usize) {
     while csv_rows(path) < rows && started.elapsed().as_secs() < 120 {
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
+}
+
+/// Starts `nnm` with `args` in the background, its output captured (`wait_with_output`).
+pub fn spawn(args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_nnm"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the nnm binary starts")
 }
