@@ -2,6 +2,8 @@
 
 mod beam_study;
 mod bench;
+mod interrupt;
+mod out_dir;
 mod run;
 mod study;
 
@@ -40,7 +42,7 @@ enum Command {
         /// Output folder (created if missing).
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
-        /// Branches computed at once (default: one per core).
+        /// Branches computed at once, at least 1 (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
         /// Only print the summary, not every point.
@@ -59,7 +61,7 @@ enum Command {
         /// A subset of backbones and no finite-difference comparison, for a first look.
         #[arg(long)]
         quick: bool,
-        /// Branches computed at once (default: one per core).
+        /// Branches computed at once, at least 1 (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
     },
@@ -120,8 +122,44 @@ fn restore_default_sigpipe() {
     }
 }
 
+/// Exit code of a run whose every branch ran, but one stopped before its limit (no
+/// convergence at the minimum step): its results are written, yet a script must not take them
+/// for the branch asked for. (2 is clap's code for a command-line usage error.)
+pub const EXIT_STOPPED_EARLY: u8 = 3;
+/// Exit code after Ctrl-C: 128 + SIGINT, as shells report a process ended by it.
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+/// A command that wrote its results but did not finish what was asked; told apart from a
+/// failure (exit code 1) by its own exit code.
+#[derive(Debug)]
+pub enum Unfinished {
+    /// A branch stopped before its limit ([`EXIT_STOPPED_EARLY`]).
+    StoppedEarly(String),
+    /// Ctrl-C ([`EXIT_INTERRUPTED`]).
+    Interrupted(String),
+}
+
+impl std::fmt::Display for Unfinished {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Unfinished::StoppedEarly(m) | Unfinished::Interrupted(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for Unfinished {}
+
+fn exit_code(error: &anyhow::Error) -> u8 {
+    match error.downcast_ref::<Unfinished>() {
+        Some(Unfinished::StoppedEarly(_)) => EXIT_STOPPED_EARLY,
+        Some(Unfinished::Interrupted(_)) => EXIT_INTERRUPTED,
+        None => 1,
+    }
+}
+
 fn main() -> ExitCode {
     restore_default_sigpipe();
+    interrupt::install();
     // A bug must still end in one line on stderr, not a backtrace.
     std::panic::set_hook(Box::new(|info| {
         let message = info
@@ -141,13 +179,25 @@ fn main() -> ExitCode {
         Ok(Err(e)) => {
             let text = format!("{e:#}").replace('\n', " ");
             eprintln!("error: {text}");
-            ExitCode::FAILURE
+            ExitCode::from(exit_code(&e))
         }
         Err(_) => ExitCode::from(101),
     }
 }
 
+/// `--threads 0` would mean rayon's default (one per core), which leaving the option out
+/// already says; as a count it is a slip, refused rather than silently read as "all".
+fn check_threads(threads: Option<usize>) -> Result<()> {
+    if threads == Some(0) {
+        anyhow::bail!("--threads must be at least 1 (leave it out for one thread per core)");
+    }
+    Ok(())
+}
+
 fn execute(cli: Cli) -> Result<()> {
+    if let Command::Run { threads, .. } | Command::Study { threads, .. } = &cli.command {
+        check_threads(*threads)?;
+    }
     match cli.command {
         Command::Modes { file, out } => run::modes(&file, out.as_deref()),
         Command::Run {

@@ -10,11 +10,14 @@ use nnm::bifurcation::{Event, switch_branch};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
 use nnm::shooting::{EvaluationProgress, PhaseCondition};
-use nnm::{Branch, BranchPoint, Observer, Start, continue_branch_observed};
+use nnm::{Branch, BranchPoint, Observer, Start, StopReason, continue_branch_observed};
 use nnm_io::job::{BranchJob, EventStart, load_job};
 use nnm_io::output::{BranchInfo, BranchWriter, SwitchedFrom, write_modes_csv};
 use nnm_plot::{FrequencyEnergyPlot, Marker, Series, SeriesPoint};
 use rayon::prelude::*;
+
+use crate::out_dir::{OutDir, foreign_branches};
+use crate::{Unfinished, interrupt};
 
 pub fn modes(file: &Path, out: Option<&Path>) -> Result<()> {
     let job = load_job(file)?;
@@ -142,6 +145,7 @@ pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<Branc
 
 pub struct Outcome {
     pub info: BranchInfo,
+    /// The branch, or why it failed ([`NotStarted`] after Ctrl-C).
     pub result: Result<Branch>,
     pub seconds: f64,
     /// The start the branch was computed from (what a switched branch builds on).
@@ -158,7 +162,8 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     }
     let modes = linear_modes(&job.structure).context("modal analysis failed")?;
     let requests = resolve(&job.branches, &modes)?;
-    create_dir(out)?;
+    let _lock = OutDir::lock(out)?;
+    warn_of_foreign_branches(out, &job.branches);
     write_modes_csv(&out.join("modes.csv"), &modes)?;
     let clock = Instant::now();
     let outcomes = compute_all(&job.structure, &modes, requests, out, threads, quiet)?;
@@ -167,12 +172,37 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
         eprintln!();
     }
     print_summary(&outcomes);
+    let early = stopped_early(&outcomes);
     println!(
-        "wall time {:.2} s; results in {}",
+        "wall time {:.2} s; results in {}{}",
         clock.elapsed().as_secs_f64(),
-        out.display()
+        out.display(),
+        match early.len() {
+            0 => String::new(),
+            1 => "; 1 branch stopped before its limit".into(),
+            n => format!("; {n} branches stopped before their limits"),
+        }
     );
-    let failures = failures(&outcomes);
+    unfinished(&outcomes, &early)
+}
+
+/// The run's verdict, most serious first: interrupted (Ctrl-C stopped or skipped a branch; one
+/// that came after the last branch ended changed nothing), a branch failed, a branch stopped
+/// before its limit; `Ok` when every branch reached its limit.
+fn unfinished(outcomes: &[Outcome], early: &[String]) -> Result<()> {
+    let cut_short = |o: &&Outcome| match &o.result {
+        Ok(b) => b.stop == StopReason::Interrupted,
+        Err(e) => e.is::<NotStarted>(),
+    };
+    let finished = outcomes.len() - outcomes.iter().filter(cut_short).count();
+    if finished < outcomes.len() {
+        return Err(Unfinished::Interrupted(format!(
+            "interrupted: {finished} of {} branches finished; the summary and files hold what was computed",
+            outcomes.len()
+        ))
+        .into());
+    }
+    let failures = failures(outcomes);
     if !failures.is_empty() {
         bail!(
             "{} of {} branches failed ({})",
@@ -181,14 +211,67 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
             failures.join("; ")
         );
     }
+    if !early.is_empty() {
+        return Err(Unfinished::StoppedEarly(format!(
+            "{} of {} branches stopped before their limits ({}); their points are written",
+            early.len(),
+            outcomes.len(),
+            early.join("; ")
+        ))
+        .into());
+    }
     Ok(())
 }
 
-/// `"<branch>: <error>"` for every branch that failed.
+/// `"<branch>: <why>"` for every branch that stopped before its limits because a step failed
+/// even at the minimum size: a partial branch a script must not take for the one asked for.
+fn stopped_early(outcomes: &[Outcome]) -> Vec<String> {
+    outcomes
+        .iter()
+        .filter_map(|o| match &o.result {
+            Ok(b) if matches!(b.stop, StopReason::StepTooSmall(_)) => {
+                Some(format!("{}: {}", o.info.name, b.stop))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// One warning line when `out` holds branch files of another job: they stay (they may be
+/// someone's results; deleting them is not this run's call), but the user must not take them
+/// for this job's, nor wonder why the plot leaves them out.
+fn warn_of_foreign_branches(out: &Path, branches: &[BranchJob]) {
+    let names: Vec<String> = branches.iter().map(|b| b.name.clone()).collect();
+    let foreign = foreign_branches(out, &names);
+    if !foreign.is_empty() {
+        eprintln!(
+            "warning: {} holds results of branches not in this job ({}); they are left as they are and not plotted",
+            out.display(),
+            foreign.join(", ")
+        );
+    }
+}
+
+/// A branch skipped because Ctrl-C came before it started.
+#[derive(Debug)]
+pub struct NotStarted;
+
+impl std::fmt::Display for NotStarted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("not started (interrupted)")
+    }
+}
+
+impl std::error::Error for NotStarted {}
+
+/// `"<branch>: <error>"` for every branch that failed (not those skipped after Ctrl-C).
 pub fn failures(outcomes: &[Outcome]) -> Vec<String> {
     outcomes
         .iter()
-        .filter_map(|o| Some(format!("{}: {:#}", o.info.name, o.result.as_ref().err()?)))
+        .filter_map(|o| {
+            let e = o.result.as_ref().err()?;
+            (!e.is::<NotStarted>()).then(|| format!("{}: {e:#}", o.info.name))
+        })
         .collect()
 }
 
@@ -231,6 +314,15 @@ pub fn compute_all(
                 .par_iter()
                 .map(|&k| {
                     let request = &requests[k];
+                    if interrupt::requested() {
+                        let outcome = Outcome {
+                            info: request.info.clone(),
+                            result: Err(NotStarted.into()),
+                            seconds: 0.0,
+                            start: None,
+                        };
+                        return (k, outcome);
+                    }
                     let started = Instant::now();
                     let parent = request.job.from_event.as_ref().map(|from| {
                         let p = names.iter().position(|n| *n == from.branch).expect("ready");
@@ -386,6 +478,7 @@ pub fn print_summary(outcomes: &[Outcome]) {
                     branch.stop
                 );
             }
+            Err(e) if e.is::<NotStarted>() => println!("{:<16} {e}", o.info.name),
             Err(e) => println!("{:<16} failed: {e:#}", o.info.name),
         }
     }
@@ -406,7 +499,10 @@ impl Label for BranchInfo {
 }
 
 /// Computes one branch from `start`, writing every point and event as it is found; `extra`
-/// sees each point after it is written and may stop the branch.
+/// sees each point after it is written and may stop the branch, `Break` giving the stop reason
+/// the files record (a deliberate stop is not "interrupted", which is kept for Ctrl-C; the
+/// branch in memory says `Interrupted` all the same). Ctrl-C stops it at the next point or
+/// event.
 #[allow(clippy::too_many_arguments)]
 pub fn compute_branch(
     structure: &Structure,
@@ -416,7 +512,7 @@ pub fn compute_branch(
     out: &Path,
     quiet: bool,
     log: &Mutex<()>,
-    extra: impl FnMut(&BranchPoint) -> ControlFlow<()>,
+    extra: impl FnMut(&BranchPoint) -> ControlFlow<&'static str>,
 ) -> Result<Branch> {
     let started = Instant::now();
     let mut writer = BranchWriter::create(out, info.clone())?;
@@ -429,6 +525,7 @@ pub fn compute_branch(
         quiet,
         log,
         extra,
+        stopped_by_extra: None,
     };
     let result = continue_branch_observed(structure, start, &job.settings, &mut observer);
     if let Some(e) = observer.error.take() {
@@ -436,17 +533,20 @@ pub fn compute_branch(
     }
     match result {
         Ok(branch) => {
-            writer.finish(&branch, started.elapsed().as_secs_f64())?;
+            let stop = match observer.stopped_by_extra {
+                Some(reason) if branch.stop == StopReason::Interrupted => reason.to_string(),
+                _ => branch.stop.to_string(),
+            };
+            writer.finish(&branch, &stop, started.elapsed().as_secs_f64())?;
             if quiet {
                 return Ok(branch);
             }
             let _guard = log.lock();
             eprintln!(
-                "[{}] done: {} points, {} events, {}",
+                "[{}] done: {} points, {} events, {stop}",
                 info.name,
                 branch.points.len(),
                 branch.events.len(),
-                branch.stop
             );
             Ok(branch)
         }
@@ -469,6 +569,8 @@ struct Writing<'a, F> {
     quiet: bool,
     log: &'a Mutex<()>,
     extra: F,
+    /// The stop reason `extra` gave when it stopped the branch.
+    stopped_by_extra: Option<&'static str>,
 }
 
 impl<F> Writing<'_, F> {
@@ -486,6 +588,9 @@ impl<F> Writing<'_, F> {
             let _guard = self.log.lock();
             eprintln!("[{}] {}", self.info.name, line());
         }
+        if interrupt::requested() {
+            return ControlFlow::Break(());
+        }
         ControlFlow::Continue(())
     }
 }
@@ -494,7 +599,7 @@ impl<F> Writing<'_, F> {
 /// equations: Newton iterations, and trial points while an event is located).
 const SLOW_POINT: std::time::Duration = std::time::Duration::from_secs(1);
 
-impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F> {
+impl<F: FnMut(&BranchPoint) -> ControlFlow<&'static str>> Observer for &mut Writing<'_, F> {
     fn evaluation(&mut self, e: &EvaluationProgress) {
         let elapsed = self.since_point.elapsed();
         if !self.quiet && elapsed > SLOW_POINT {
@@ -531,7 +636,13 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<()>> Observer for &mut Writing<'_, F>
                 p.floquet.max_modulus
             )
         })?;
-        (self.extra)(p)
+        match (self.extra)(p) {
+            ControlFlow::Break(reason) => {
+                self.stopped_by_extra = Some(reason);
+                ControlFlow::Break(())
+            }
+            ControlFlow::Continue(()) => ControlFlow::Continue(()),
+        }
     }
 
     fn event(&mut self, e: &Event) -> ControlFlow<()> {

@@ -1,28 +1,8 @@
 //! The command-line contract (README, "Command line"): outputs, and one-line errors with a non-zero exit for
 //! bad input (never a panic).
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn nnm(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nnm"))
-        .args(args)
-        .output()
-        .expect("the nnm binary runs")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nnm-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, file: &str, text: &str) -> String {
-    let path = dir.join(file);
-    std::fs::write(&path, text).unwrap();
-    path.to_str().unwrap().to_string()
-}
+mod common;
+use common::{LONG_BRANCH, csv_rows, nnm, scratch, spawn, wait_for_rows, write};
 
 /// Runs `nnm run JOB` expecting failure; returns the single stderr line.
 fn expect_error(job_text: &str, expected: &str) {
@@ -338,28 +318,14 @@ fn run_writes_csv_and_json_per_branch() {
 #[test]
 fn interrupted_run_keeps_every_point() {
     let dir = scratch("interrupt");
-    let job = write(
-        &dir,
-        "job.toml",
-        "[model]\nfamily = \"bladed-disk\"\n[[branch]]\nname = \"long\"\nmode = \"0,6\"\nmax_points = 1000\nmax_step = 0.02\n",
-    );
+    let job = write(&dir, "job.toml", LONG_BRANCH);
     let out = dir.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_nnm"))
-        .args(["run", &job, "--out", out.to_str().unwrap(), "--quiet"])
-        .stderr(std::process::Stdio::null())
-        .stdout(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = spawn(&["run", &job, "--out", out.to_str().unwrap(), "--quiet"]);
     let csv_path = out.join("long.csv");
-    let rows =
-        |p: &Path| std::fs::read_to_string(p).map_or(0, |s| s.lines().count().saturating_sub(1));
-    let started = std::time::Instant::now();
-    while rows(&csv_path) < 5 && started.elapsed().as_secs() < 120 {
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
+    wait_for_rows(&csv_path, 5);
     child.kill().unwrap();
     child.wait().unwrap();
-    let csv_rows = rows(&csv_path);
+    let csv_rows = csv_rows(&csv_path);
     assert!(
         csv_rows >= 5,
         "only {csv_rows} rows written before the kill"

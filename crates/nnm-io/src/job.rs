@@ -138,8 +138,14 @@ struct ModelSpec {
     fixed_dofs: Option<Vec<usize>>,
 }
 
+/// `mass`/`stiffness`: rows, or a file. Untagged, so serde's own message on a mismatch
+/// ("did not match any variant of untagged enum") would name a type the user never sees:
+/// `expecting` says what forms are accepted instead.
 #[derive(Debug, Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "expected a matrix as rows of numbers, e.g. [[2.0, -1.0], [-1.0, 2.0]], or as a Matrix Market file, { file = \"K.mtx\" }"
+)]
 enum MatrixSpec {
     Rows(Vec<Vec<f64>>),
     File { file: String },

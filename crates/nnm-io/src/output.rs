@@ -356,12 +356,18 @@ impl BranchWriter {
         std::fs::rename(&tmp, &self.json_path).map_err(output_error(&self.json_path))
     }
 
-    /// Rewrites the JSON complete, with the stop reason, work counters and wall time.
-    pub fn finish(&mut self, branch: &Branch, wall_time_s: f64) -> Result<(), OutputError> {
+    /// Rewrites the JSON complete, with the stop reason (`branch.stop` as text, or the
+    /// caller's own words for a stop it asked for), work counters and wall time.
+    pub fn finish(
+        &mut self,
+        branch: &Branch,
+        stop_reason: &str,
+        wall_time_s: f64,
+    ) -> Result<(), OutputError> {
         let document = Document {
             info: &self.info,
             status: "finished",
-            stop_reason: Some(branch.stop.to_string()),
+            stop_reason: Some(stop_reason.to_string()),
             stats: Some(&branch.stats),
             wall_time_s: Some(wall_time_s),
             events: Some(

@@ -13,13 +13,7 @@ use crate::model::MechanicalSystem;
 use crate::settings::{Limits, Settings};
 use crate::shooting::{BranchPoint, EvaluationProgress, Shooting, ShootingStats, Start};
 
-/// A first point that failed on a half-period problem: the likely cause, a motion that is
-/// not half-wave symmetric, is named beside the failure it wraps.
-#[derive(Debug, thiserror::Error)]
-#[error(
-    "{0} (shooting over half a period; set half_period = false if the motion is not half-wave symmetric)"
-)]
-struct HalfPeriodHint(crate::continuation::BoxError);
+mod hint;
 
 /// Why a branch ended.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -149,8 +143,10 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
             Some(Err(ContinuationError::StepTooSmall(why))) => {
                 break StopReason::StepTooSmall(why.to_string());
             }
-            Some(Err(ContinuationError::FirstPoint(why))) if half_period => {
-                return Err(ContinuationError::FirstPoint(Box::new(HalfPeriodHint(why))));
+            Some(Err(ContinuationError::FirstPoint(why))) => {
+                let tolerance = settings.continuation.tolerance;
+                let why = hint::first_point(why, half_period, tolerance);
+                return Err(ContinuationError::FirstPoint(why));
             }
             Some(Err(error)) => return Err(error),
             None => break StopReason::MaxPoints,

@@ -37,9 +37,9 @@ pub struct Settings {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Limits {
-    /// Stop once a point's energy exceeds this (default +∞).
+    /// Stop once a point's energy exceeds this (positive; default +∞).
     pub energy_max: f64,
-    /// Stop once `|frequency / linear frequency - 1|` exceeds this (default +∞).
+    /// Stop once `|frequency / linear frequency - 1|` exceeds this (positive; default +∞).
     pub frequency_shift_max: f64,
     /// Stop after this many points (default 500).
     pub max_points: usize,
@@ -50,7 +50,7 @@ pub struct Limits {
 #[serde(default)]
 pub struct ContinuationSettings {
     /// Convergence tolerance `ε` of the corrector on the problem's relative residual
-    /// (eq. (19); default 1e-8).
+    /// (eq. (19); default 1e-8; from [`MIN_TOLERANCE`] to 1e-2).
     pub tolerance: f64,
     /// First step, relative to the starting amplitude (default 0.1).
     pub initial_step: f64,
@@ -182,6 +182,11 @@ impl Default for StabilitySettings {
     }
 }
 
+/// The smallest `tolerance` accepted: the relative residual of a period integrated in double
+/// precision does not fall much below 1e-15 (round-off of the state and of every step), so a
+/// smaller tolerance cannot be met and would only end in a failed first point.
+pub const MIN_TOLERANCE: f64 = 1e-14;
+
 /// A setting out of its range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("invalid setting: {0}")]
@@ -252,11 +257,25 @@ impl Settings {
                 c.tolerance
             ));
         }
+        if c.tolerance < MIN_TOLERANCE {
+            return fail(format!(
+                "tolerance {:e} is below {MIN_TOLERANCE:e}, which double precision cannot meet: the periodicity residual of an integrated orbit carries round-off of ~1e-15 of the state",
+                c.tolerance
+            ));
+        }
         if c.min_step > c.max_step {
             return fail("min_step exceeds max_step".into());
         }
-        if self.limits.energy_max.is_nan() || self.limits.frequency_shift_max.is_nan() {
-            return fail("stop limits must not be NaN".into());
+        // A limit at or below zero would stop the branch at its first point, which already
+        // lies above it: a sign slip, not a request for one point (`max_points = 1` is that).
+        let l = &self.limits;
+        for (name, v) in [
+            ("energy_max", l.energy_max),
+            ("frequency_shift_max", l.frequency_shift_max),
+        ] {
+            if !(v > 0.0) {
+                return fail(format!("{name} must be positive, got {v}"));
+            }
         }
         if self.limits.max_points == 0 || c.max_iterations == 0 {
             return fail("max_points and max_iterations must be at least 1".into());
@@ -265,6 +284,16 @@ impl Settings {
             && !(e.is_finite() && e > 0.0)
         {
             return fail(format!("energy_start must be positive and finite, got {e}"));
+        }
+        // The branch starts near energy_start and rises: starting at or past the limit would
+        // spend a Newton solve on a point the limit then discards.
+        if let Some(e) = self.start.energy_start
+            && e >= l.energy_max
+        {
+            return fail(format!(
+                "energy_start {e} must be below energy_max {} (the branch starts there and rises towards it)",
+                l.energy_max
+            ));
         }
         Ok(())
     }

@@ -95,6 +95,7 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
     let clock = Instant::now();
     let beam = CantileverBeam::default();
     let branches = if options.quick { QUICK_MODES } else { MODES };
+    let _lock = crate::out_dir::OutDir::lock(out)?;
     let job_path = crate::write_example_job(out, "cantilever-beam", &job_text(&beam, branches))?;
     let job = load_job(&job_path)?;
     let structure = &job.structure;
@@ -116,6 +117,12 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
         eprintln!();
     }
     print_summary(&outcomes);
+    if crate::interrupt::requested() {
+        return Err(crate::Unfinished::Interrupted(
+            "interrupted: the summary above and the branch files hold what was computed".into(),
+        )
+        .into());
+    }
     let failed = failures(&outcomes);
     if !failed.is_empty() {
         bail!("branches failed: {}", failed.join("; "));

@@ -25,7 +25,7 @@ pub(super) struct Backbones {
     pub outcomes: Vec<Outcome>,
     /// Wall time of the parallel continuation.
     pub seconds: f64,
-    /// Threads of the global pool, as reported when the work started.
+    /// Threads the backbones were computed on.
     pub threads: usize,
 }
 
@@ -49,6 +49,14 @@ impl Backbones {
 
     pub fn total_points(&self) -> usize {
         self.computed().map(|(_, b)| b.points.len()).sum()
+    }
+}
+
+/// "1 thread", "4 threads".
+pub(super) fn threads_text(threads: usize) -> String {
+    match threads {
+        1 => "1 thread".into(),
+        n => format!("{n} threads"),
     }
 }
 
@@ -90,8 +98,13 @@ pub(super) fn compute(
         .collect();
     let backbone_dir = out.join("backbones");
     create_dir(&backbone_dir)?;
-    let threads = rayon::current_num_threads();
-    eprintln!("study: {} backbones on {threads} threads", jobs.len());
+    // The pool `compute_all` builds has this many threads (rayon's default: one per core).
+    let threads = options.threads.unwrap_or_else(rayon::current_num_threads);
+    eprintln!(
+        "study: {} backbones on {}",
+        jobs.len(),
+        threads_text(threads)
+    );
     let started = Instant::now();
     let outcomes = compute_all(
         structure,
@@ -201,7 +214,7 @@ pub(super) fn single_branch(
     modes: &[LinearMode],
     job: &BranchJob,
     out: &Path,
-    extra: impl FnMut(&BranchPoint) -> ControlFlow<()>,
+    extra: impl FnMut(&BranchPoint) -> ControlFlow<&'static str>,
 ) -> Result<Branch> {
     let request = resolve(std::slice::from_ref(job), modes)?
         .pop()

@@ -18,7 +18,8 @@ use nnm::modes::{find_mode, linear_modes};
 use nnm::shooting::JacobianMethod;
 use nnm_io::job::load_job;
 
-use crate::run::create_dir;
+use crate::out_dir::OutDir;
+use crate::{Unfinished, interrupt};
 use report::Report;
 
 mod backbones;
@@ -60,7 +61,7 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
             );
         }
     }
-    create_dir(out)?;
+    let _lock = OutDir::lock(out)?;
     let mut report = Report::new(job_path, options.quick);
 
     // 1. Linear modes.
@@ -72,6 +73,7 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
     let backbones = backbones::compute(structure, &modes, settings, options, out)?;
     figures::backbones(&backbones, out)?;
     report.backbones(&backbones, &backbones::turning_back(&backbones));
+    section(&mut report, out, clock, Ok(()))?;
 
     // 3. Similar and nonsimilar modes.
     let shape_changes = similarity::shape_changes(structure, &modes, &backbones);
@@ -85,21 +87,32 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
     report.localization(&localization);
 
     // Bifurcations along the backbones and the switch at a branch point of (1,5).
-    let events = bifurcations::analyse(structure, &modes, &backbones, settings, out)?;
+    let events = section(
+        &mut report,
+        out,
+        clock,
+        bifurcations::analyse(structure, &modes, &backbones, settings, out),
+    )?;
     if let Some(switched) = &events.switched {
         figures::bifurcations(switched, out)?;
     }
     report.bifurcations(&events);
 
     // 5. The 3:1 tongue, with sensitivities, checked against (1,12).
-    let tongue = tongue::continue_tongue(
-        structure,
-        &modes,
-        settings,
-        JacobianMethod::Sensitivity,
+    let tongue_with =
+        |jacobian, dir: &Path| tongue::continue_tongue(structure, &modes, settings, jacobian, dir);
+    let tongue = section(
+        &mut report,
         out,
+        clock,
+        tongue_with(JacobianMethod::Sensitivity, out),
     )?;
-    let junction = junction::check(structure, &modes, &tongue, settings, out)?;
+    let junction = section(
+        &mut report,
+        out,
+        clock,
+        junction::check(structure, &modes, &tongue, settings, out),
+    )?;
     let motions = tongue::representative_motions(structure, &tongue)?;
     tables::tongue(&tongue, out)?;
     figures::tongue(&tongue, &junction, &motions, backbones.branch("0,6"), out)?;
@@ -110,12 +123,12 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
         report.cost_comparison_skipped();
     } else {
         eprintln!("study: the tongue again with the finite-difference Jacobian (slow) ...");
-        let fd = tongue::continue_tongue(
-            structure,
-            &modes,
-            settings,
-            JacobianMethod::FiniteDifference,
-            &out.join("finite-difference"),
+        let fd_out = out.join("finite-difference");
+        let fd = section(
+            &mut report,
+            out,
+            clock,
+            tongue_with(JacobianMethod::FiniteDifference, &fd_out),
         )?;
         report.cost_comparison(&tongue, &fd);
     }
@@ -128,4 +141,22 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
         out.join("report.md").display()
     );
     Ok(())
+}
+
+/// A section's result, unless Ctrl-C came (whatever the section returned: an interrupted
+/// branch can make it fail): then `report.md` is written as far as the study got, and the
+/// study ends as interrupted (the sections after this one need what it did not finish).
+fn section<T>(report: &mut Report, out: &Path, clock: Instant, result: Result<T>) -> Result<T> {
+    if !interrupt::requested() {
+        return result;
+    }
+    report.interrupted();
+    report.wall_time(clock.elapsed().as_secs_f64());
+    let path = out.join("report.md");
+    report.write(&path)?;
+    Err(Unfinished::Interrupted(format!(
+        "interrupted: the study stopped; {} has the sections finished",
+        path.display()
+    ))
+    .into())
 }

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 
-use super::backbones::{Backbones, TurnBack};
+use super::backbones::{Backbones, TurnBack, threads_text};
 use super::bifurcations::{Bifurcations, SWITCHED_SHIFT, Switched};
 use super::localization::Localization;
 use super::similarity::{ShapeChange, angle_from};
@@ -45,6 +45,16 @@ impl Report {
         let _ = writeln!(self.text, "{text}\n");
     }
 
+    /// Ctrl-C ended the study after the sections above.
+    pub fn interrupted(&mut self) {
+        self.heading("Interrupted");
+        self.line(
+            "The study was interrupted (Ctrl-C) here: the sections above hold what was \
+             finished (a backbone ends where the interrupt found it), those below were not \
+             computed. Every branch file holds the points computed before the interrupt.",
+        );
+    }
+
     pub fn wall_time(&mut self, seconds: f64) {
         self.line(&format!("Total wall time of the study: {seconds:.1} s."));
     }
@@ -78,12 +88,12 @@ impl Report {
              the n = 0 modes.",
         );
         self.line(&format!(
-            "{} backbones, {} points, {:.1} s wall time on {} threads. Each \
+            "{} backbones, {} points, {:.1} s wall time on {}. Each \
              branch is in `backbones/<name>.csv` / `.json`; `backbones.csv` summarises them.",
             backbones.outcomes.len(),
             backbones.total_points(),
             backbones.seconds,
-            backbones.threads
+            threads_text(backbones.threads)
         ));
         if !turning_back.is_empty() {
             let s_shape = if turning_back.iter().any(|t| t.label == "1,14") {

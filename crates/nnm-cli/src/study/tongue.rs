@@ -175,6 +175,10 @@ fn junction_between(points: &[TonguePoint], next: &TonguePoint) -> (f64, f64) {
     )
 }
 
+/// Stop reason in the tongue's files: the continuation is stopped on purpose where the tongue
+/// meets (1,12) (it would turn back onto a phase-shifted copy), which is not an interrupt.
+const JUNCTION_STOP: &str = "reached the junction with (1,12)";
+
 /// Continues (0,6) past its fold along the tongue until the fundamental changes sign (the
 /// junction with the (1,12) family at a third of the period). Files go to `out`.
 pub(super) fn continue_tongue(
@@ -223,7 +227,7 @@ pub(super) fn continue_tongue(
             Ok(s) => s,
             Err(e) => {
                 failure = Some(e);
-                return ControlFlow::Break(());
+                return ControlFlow::Break("failed to sample the motion");
             }
         };
         let (a1, p1, a3) = signed_harmonics(&states, n, &start_mode.shape);
@@ -257,7 +261,7 @@ pub(super) fn continue_tongue(
         }
         analysis_seconds += analysis_started.elapsed().as_secs_f64();
         if crossed {
-            ControlFlow::Break(())
+            ControlFlow::Break(JUNCTION_STOP)
         } else {
             ControlFlow::Continue(())
         }

@@ -1,0 +1,346 @@
+//! What a probe of bad inputs and interrupts found (issue 13, item 4), each as a contract: limits
+//! and tolerances refused before any computation, exit codes a script can tell apart (README
+//! "Command line"), Ctrl-C that still writes what was finished, one run per output folder.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+mod common;
+use common::{LONG_BRANCH, csv_rows, nnm, scratch, spawn, wait_for_rows, write};
+
+const MODEL: &str = "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n[[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\ncoefficient = 0.5\n";
+
+/// The bladed-disk study's job: the paper's model, backbones to E = 10.
+const STUDY_JOB: &str = "[model]\nfamily = \"bladed-disk\"\n[settings]\nenergy_max = 10.0\n";
+
+/// A branch of the two-DOF model with `keys` (one per line).
+fn job(name: &str, mode: usize, keys: &str) -> String {
+    format!("[[branch]]\nname = \"{name}\"\nmode = {mode}\n{keys}\n")
+}
+
+fn stderr_of(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// A single `error: ...` line on stderr, exit code `code`, no panic.
+fn assert_one_error_line(output: &Output, code: i32, expected: &str) -> String {
+    let stderr = stderr_of(output);
+    assert_eq!(output.status.code(), Some(code), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "one line expected: {stderr}");
+    assert!(stderr.starts_with("error: "), "{stderr}");
+    assert!(stderr.contains(expected), "`{stderr}` lacks `{expected}`");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    stderr
+}
+
+/// Limits at or below zero (or NaN), a start above the energy limit and a tolerance double
+/// precision cannot meet are refused from the job file alone: nothing is created, and the
+/// half-period hint (meant for motions that are not half-wave symmetric) is not given.
+#[test]
+fn limits_and_tolerances_are_refused_before_anything_is_computed() {
+    let dir = scratch("limits");
+    for (keys, expected) in [
+        ("energy_max = -1.0", "energy_max must be positive, got -1"),
+        ("energy_max = 0.0", "energy_max must be positive, got 0"),
+        (
+            "frequency_shift_max = -0.1",
+            "frequency_shift_max must be positive, got -0.1",
+        ),
+        (
+            "frequency_shift_max = nan",
+            "frequency_shift_max must be positive, got NaN",
+        ),
+        (
+            "energy_max = 1.0\nenergy_start = 5.0",
+            "energy_start 5 must be below energy_max 1",
+        ),
+        (
+            "energy_max = 1.0\ntolerance = 1e-17",
+            "tolerance 1e-17 is below 1e-14, which double precision cannot meet",
+        ),
+    ] {
+        let path = write(&dir, "job.toml", &format!("{MODEL}{}", job("b", 0, keys)));
+        let out = dir.join("out");
+        let output = nnm(&["run", &path, "--out", out.to_str().unwrap()]);
+        let stderr = assert_one_error_line(&output, 1, expected);
+        assert!(!stderr.contains("half_period"), "{stderr}");
+        assert!(!out.exists(), "{keys}: nothing may be written");
+    }
+    // The smallest tolerance accepted converges (the bound is not too strict).
+    let path = write(
+        &dir,
+        "job.toml",
+        &format!(
+            "{MODEL}{}",
+            job("b", 0, "energy_max = 1.0\ntolerance = 1e-14")
+        ),
+    );
+    let output = nnm(&[
+        "run",
+        &path,
+        "--out",
+        dir.join("out").to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(output.status.success(), "{}", stderr_of(&output));
+}
+
+/// A matrix given in neither accepted form names the forms (not serde's "untagged enum"), and
+/// a Matrix Market error is said once.
+#[test]
+fn matrix_errors_say_what_is_accepted_once() {
+    let dir = scratch("matrix");
+    let job = write(
+        &dir,
+        "job.toml",
+        "[model]\nmass = \"M.mtx\"\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n",
+    );
+    let stderr = assert_one_error_line(
+        &nnm(&["modes", &job]),
+        1,
+        "job.toml:2:8: expected a matrix as rows of numbers, e.g. [[2.0, -1.0], [-1.0, 2.0]], or as a Matrix Market file, { file = \"K.mtx\" }",
+    );
+    assert!(!stderr.contains("untagged"), "{stderr}");
+    write(
+        &dir,
+        "M.mtx",
+        "%%MatrixMarket matrix coordinate real general\n2 2 x\n",
+    );
+    let job = write(
+        &dir,
+        "job.toml",
+        "[model]\nmass = { file = \"M.mtx\" }\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n",
+    );
+    let stderr = assert_one_error_line(&nnm(&["modes", &job]), 1, "M.mtx: line 2: ");
+    assert_eq!(stderr.matches("line 2").count(), 1, "{stderr}");
+}
+
+/// A branch that cannot converge even at its minimum step (one Newton iteration allowed, steps
+/// of at least 0.2) stops early: its points and the other branch are written, the summary says
+/// so, and the exit code is 3 — not 0 (success) nor 1 (failure).
+#[test]
+fn branch_stopped_before_its_limit_exits_3() {
+    let dir = scratch("early");
+    let text = format!(
+        "{MODEL}{}{}",
+        job(
+            "stuck",
+            0,
+            "energy_max = 100.0\nmax_iterations = 1\nmin_step = 0.2\ninitial_step = 0.25"
+        ),
+        job("fine", 1, "energy_max = 1.0")
+    );
+    let path = write(&dir, "job.toml", &text);
+    let out = dir.join("out");
+    let output = nnm(&["run", &path, "--out", out.to_str().unwrap(), "--quiet"]);
+    assert_one_error_line(
+        &output,
+        3,
+        "1 of 2 branches stopped before their limits (stuck: no convergence at the minimum step",
+    );
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("; 1 branch stopped before its limit"),
+        "{stdout}"
+    );
+    let rows = |name: &str| {
+        std::fs::read_to_string(out.join(format!("{name}.csv")))
+            .unwrap()
+            .lines()
+            .count()
+            - 1
+    };
+    assert!(rows("stuck") > 1 && rows("fine") > 1);
+    let stop = |name: &str| stop_reason(&out.join(format!("{name}.json")));
+    assert!(stop("stuck").starts_with("no convergence at the minimum step"));
+    assert_eq!(stop("fine"), "reached energy_max");
+    assert!(out.join("fep.png").exists());
+}
+
+fn stop_reason(json: &Path) -> String {
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    doc["stop_reason"].as_str().unwrap_or_default().to_string()
+}
+
+/// Ctrl-C during `nnm run`: a line says so at once; the branch in progress stops at its next
+/// point with its files complete ("interrupted"), the branch not yet started is skipped, the
+/// summary and the frequency–energy plot are written, the exit code is 130 and the output
+/// folder's lock is released.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_writes_what_was_finished() {
+    let dir = scratch("sigint");
+    let text =
+        format!("{LONG_BRANCH}[[branch]]\nname = \"later\"\nmode = \"1,5\"\nenergy_max = 10.0\n");
+    let path = write(&dir, "job.toml", &text);
+    let out = dir.join("out");
+    let out_dir = out.to_str().unwrap();
+    let child = spawn(&["run", &path, "--out", out_dir, "--quiet", "--threads", "1"]);
+    wait_for_rows(&out.join("long.csv"), 5);
+    let output = interrupt(child);
+    let stderr = stderr_of(&output);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.starts_with("\ninterrupted: finishing the points in progress"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("error: interrupted: 0 of 2 branches finished"),
+        "{stderr}"
+    );
+    let summary: Vec<&str> = stdout.lines().collect();
+    assert!(
+        summary
+            .iter()
+            .any(|l| l.starts_with("long ") && l.ends_with("  interrupted")),
+        "{stdout}"
+    );
+    assert!(
+        summary
+            .iter()
+            .any(|l| l.starts_with("later ") && l.ends_with("not started (interrupted)")),
+        "{stdout}"
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("long.json")).unwrap()).unwrap();
+    assert_eq!(doc["status"], "finished");
+    assert_eq!(doc["stop_reason"], "interrupted");
+    assert_eq!(
+        doc["points"].as_array().unwrap().len(),
+        csv_rows(&out.join("long.csv"))
+    );
+    assert!(!out.join("later.csv").exists());
+    assert!(out.join("fep.png").exists() && out.join("fep.svg").exists());
+    assert!(!out.join(".nnm.lock").exists());
+}
+
+/// One run per output folder: a lock held by a live process refuses the run at once (nothing
+/// written); a lock left by a process that is gone is taken over and released at the end.
+/// Branch files of another job are kept and named in one warning line, even with `--quiet`.
+/// (Unix: elsewhere a lock cannot be told stale and is always taken to be held.)
+#[cfg(unix)]
+#[test]
+fn an_output_folder_is_used_by_one_run_at_a_time() {
+    let dir = scratch("lock");
+    let path = write(
+        &dir,
+        "job.toml",
+        &format!("{MODEL}{}", job("b", 0, "energy_max = 1.0")),
+    );
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let lock = out.join(".nnm.lock");
+    // This test's own process is alive.
+    std::fs::write(&lock, format!("{}\n", std::process::id())).unwrap();
+    let output = nnm(&["run", &path, "--out", out.to_str().unwrap(), "--quiet"]);
+    assert_one_error_line(
+        &output,
+        1,
+        &format!(
+            "is in use by another nnm run (process {})",
+            std::process::id()
+        ),
+    );
+    assert!(!out.join("b.csv").exists() && lock.exists());
+
+    // A process that has ended.
+    let mut gone = Command::new("true").spawn().unwrap();
+    let pid = gone.id();
+    gone.wait().unwrap();
+    std::fs::write(&lock, format!("{pid}\n")).unwrap();
+    write(&out, "old.csv", "index,energy\n");
+    write(&out, "old.json", "{}");
+    let output = nnm(&["run", &path, "--out", out.to_str().unwrap(), "--quiet"]);
+    let stderr = stderr_of(&output);
+    assert!(output.status.success(), "{stderr}");
+    assert_eq!(
+        stderr.trim_end(),
+        format!(
+            "warning: {} holds results of branches not in this job (old); they are left as they are and not plotted",
+            out.display()
+        )
+    );
+    assert!(out.join("b.csv").exists() && out.join("old.csv").exists());
+    assert!(!lock.exists());
+}
+
+/// `--threads 0` is refused (leaving it out means one per core); `nnm study --threads 1`
+/// reports one thread; the tongue's deliberate stop at the junction is recorded as such, not
+/// as an interrupt.
+#[test]
+fn threads_are_reported_as_asked_and_the_junction_is_no_interrupt() {
+    let dir = scratch("threads");
+    let path = write(&dir, "job.toml", STUDY_JOB);
+    let out = dir.join("out");
+    for command in ["run", "study"] {
+        let output = nnm(&[
+            command,
+            &path,
+            "--out",
+            out.to_str().unwrap(),
+            "--threads",
+            "0",
+        ]);
+        assert_one_error_line(&output, 1, "--threads must be at least 1");
+    }
+    let output = nnm(&[
+        "study",
+        &path,
+        "--out",
+        out.to_str().unwrap(),
+        "--quick",
+        "--threads",
+        "1",
+    ]);
+    let stderr = stderr_of(&output);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("study: 7 backbones on 1 thread\n"),
+        "{stderr}"
+    );
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains(" wall time on 1 thread. "), "{report}");
+    assert_eq!(
+        stop_reason(&out.join("tongue-0-6.json")),
+        "reached the junction with (1,12)"
+    );
+}
+
+/// Ctrl-C during `nnm study` (here in the tongue): the report is written with the sections
+/// finished and says where it stopped, the tongue's files say "interrupted", exit code 130.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_during_a_study_writes_its_report_so_far() {
+    let dir = scratch("study-sigint");
+    let path = write(&dir, "job.toml", STUDY_JOB);
+    let out = dir.join("out");
+    let child = spawn(&["study", &path, "--out", out.to_str().unwrap(), "--quick"]);
+    wait_for_rows(&out.join("tongue-0-6.csv"), 5);
+    let output = interrupt(child);
+    let stderr = stderr_of(&output);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.contains("error: interrupted: the study stopped;"),
+        "{stderr}"
+    );
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for heading in ["## 2. Backbones", "## Interrupted"] {
+        assert!(report.contains(heading), "{report}");
+    }
+    assert!(!report.contains("## 5."), "{report}");
+    assert_eq!(stop_reason(&out.join("tongue-0-6.json")), "interrupted");
+    assert!(!out.join(".nnm.lock").exists());
+}
+
+/// Sends SIGINT to `child` and collects its output.
+#[cfg(unix)]
+fn interrupt(child: std::process::Child) -> Output {
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    child.wait_with_output().unwrap()
+}
