@@ -268,9 +268,17 @@ fn variational_step(
                 directions[r * k + col] = px[r] + hc * pv[r];
             }
         }
-        tangents.apply_block(i, directions, k, row, |r, col, value| {
-            rhs[col * m + i * n + r] = -value;
-        });
+        if k == 1 {
+            // One direction (a matrix-free product): the plain product, without the block
+            // sweep's per-entry callback — a fifth of a product's time on a 100-element beam.
+            let out = &mut rhs[i * n..(i + 1) * n];
+            tangents.apply(i, directions, out);
+            out.iter_mut().for_each(|v| *v = -*v);
+        } else {
+            tangents.apply_block(i, directions, k, row, |r, col, value| {
+                rhs[col * m + i * n + r] = -value;
+            });
+        }
     }
     lu.solve_in_place(rhs, k);
     for col in 0..k {
@@ -801,6 +809,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         let p = self.method.order as f64;
         // The motion's slow part: components below `CUTOFF_CYCLES` cycles over the horizon.
         let filter = self.low_pass(2.0 * std::f64::consts::PI * CUTOFF_CYCLES / duration)?;
+        let mut trials: Vec<(usize, f64)> = Vec::new();
         loop {
             if 2 * steps > self.max_steps {
                 return Err(IntegrationError::TooManySteps {
@@ -819,10 +828,31 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             let error = relative(&coarse.0, &fine.0).max(relative(&coarse.1, &fine.1))
                 / (2f64.powf(p) - 1.0)
                 / self.tolerances.relative;
+            let accept = |chosen: usize, this: &mut Self| {
+                this.chosen = Some((duration / chosen as f64, duration, 0));
+                Ok(chosen)
+            };
             if error <= 1.0 {
-                let chosen = 2 * steps;
-                self.chosen = Some((duration / chosen as f64, duration, 0));
-                return Ok(chosen);
+                return accept(2 * steps, self);
+            }
+            // The estimate's round-off floor: once the steps have grown at least fourfold
+            // over two trials, an error of order `p` has fallen a thousandfold; if it fell
+            // less than tenfold, what is left is the stage systems' round-off (their
+            // condition grows like (ω_max h)²), which more steps do not reduce. Measured on
+            // the 1,000-element ECL beam (ω_max/ω₁ ≈ 10⁷): estimates 5.6, 23, 5.4, 13, 2.6
+            // times the tolerance at 16 to 646 steps. The fewest steps that reached the
+            // floor are taken; Newton's own residual still decides convergence.
+            trials.push((steps, error));
+            if let [.., (s0, e0), _, (s2, e2)] = trials[..]
+                && s2 >= 4 * s0
+                && e2 > 0.1 * e0
+            {
+                let (best, _) = trials
+                    .iter()
+                    .copied()
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .expect("trials were made");
+                return accept(2 * best.min(s2), self);
             }
             // Error ∝ N^-p: aim at a tenth of the tolerance, growing at least twofold.
             let factor = (10.0 * error).powf(1.0 / p).clamp(2.0, 16.0);
