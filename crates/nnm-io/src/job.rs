@@ -383,7 +383,8 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
             mode,
             pattern,
             settings,
-        } = branch_body(table, &defaults, from_event.is_some()).map_err(|m| invalid(context(&m)))?;
+        } = branch_body(table, &defaults, from_event.is_some())
+            .map_err(|m| invalid(context(&m)))?;
         branches.push(BranchJob {
             name,
             mode,

@@ -34,9 +34,10 @@ pub fn to_toml(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
     }
     if value.hasattr("__index__")? {
         let index = value.call_method0("__index__")?;
-        return index.extract::<i64>().map(toml::Value::Integer).map_err(|_| {
-            PyValueError::new_err(format!("`{key}` = {index} is out of range"))
-        });
+        return index
+            .extract::<i64>()
+            .map(toml::Value::Integer)
+            .map_err(|_| PyValueError::new_err(format!("`{key}` = {index} is out of range")));
     }
     if value.hasattr("__float__")? {
         return Ok(toml::Value::Float(value.extract()?));
@@ -79,7 +80,9 @@ mod tests {
             dict.set_item("tolerance", 1e-9).unwrap();
             dict.set_item("phase", "flow-orthogonal").unwrap();
             dict.set_item("energy_start", py.None()).unwrap();
-            let numpy_int = py.import("numpy").and_then(|np| np.getattr("int64")?.call1((5,)));
+            let numpy_int = py
+                .import("numpy")
+                .and_then(|np| np.getattr("int64")?.call1((5,)));
             if let Ok(five) = numpy_int {
                 dict.set_item("target_iterations", five).unwrap();
             }
@@ -87,13 +90,16 @@ mod tests {
             assert_eq!(table["events"], toml::Value::Boolean(true));
             assert_eq!(table["max_points"], toml::Value::Integer(7));
             assert_eq!(table["tolerance"], toml::Value::Float(1e-9));
-            assert_eq!(table["phase"], toml::Value::String("flow-orthogonal".into()));
+            assert_eq!(
+                table["phase"],
+                toml::Value::String("flow-orthogonal".into())
+            );
             assert!(!table.contains_key("energy_start"));
             if table.contains_key("target_iterations") {
                 assert_eq!(table["target_iterations"], toml::Value::Integer(5));
             }
-            let settings = nnm_io::job::branch_body(table, &toml::Table::new(), true)
-                .expect("valid settings");
+            let settings =
+                nnm_io::job::branch_body(table, &toml::Table::new(), true).expect("valid settings");
             assert_eq!(settings.settings.limits.max_points, 7);
             assert!(settings.settings.stability.events);
         });

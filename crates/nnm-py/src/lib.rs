@@ -79,6 +79,16 @@ fn matrix_from_py(name: &'static str, value: &Bound<'_, PyAny>) -> PyResult<Matr
     Ok(Matrix::from_fn(rows, cols, |i, j| a[(i, j)]))
 }
 
+/// A job-file message about keyword arguments: `TypeError` for a value of the wrong type
+/// (serde's "invalid type: ..."), `ValueError` otherwise.
+fn input_error(message: String) -> PyErr {
+    if message.starts_with("invalid type:") {
+        PyTypeError::new_err(message)
+    } else {
+        PyValueError::new_err(message)
+    }
+}
+
 fn model_error(e: ModelError) -> PyErr {
     PyValueError::new_err(e.to_string())
 }
@@ -90,7 +100,8 @@ fn model_error(e: ModelError) -> PyErr {
 fn element_from_py(index: usize, n: usize, value: &Bound<'_, PyAny>) -> PyResult<Element> {
     let tuple = value.cast::<PyTuple>()?;
     let kind: String = tuple.get_item(0)?.extract()?;
-    let element_error = |m: String| PyValueError::new_err(format!("nonlinear element {}: {m}", index + 1));
+    let element_error =
+        |m: String| PyValueError::new_err(format!("nonlinear element {}: {m}", index + 1));
     if kind != "tensor" {
         let (_, dofs, coefficient, exponent): (String, Vec<usize>, f64, Option<u32>) =
             tuple.extract()?;
@@ -117,7 +128,15 @@ fn element_from_py(index: usize, n: usize, value: &Bound<'_, PyAny>) -> PyResult
         .rows()
         .into_iter()
         .zip(c_vals.as_array())
-        .map(|(r, &v)| (index_of(r[0]), index_of(r[1]), index_of(r[2]), index_of(r[3]), v))
+        .map(|(r, &v)| {
+            (
+                index_of(r[0]),
+                index_of(r[1]),
+                index_of(r[2]),
+                index_of(r[3]),
+                v,
+            )
+        })
         .collect();
     PolynomialTensor::new(n, quadratic, cubic)
         .map(Element::Tensor)
@@ -159,7 +178,7 @@ impl NativeModel {
     fn from_table(table: &Bound<'_, PyDict>) -> PyResult<Self> {
         let table = table_from_dict(table)?;
         let (structure, family) =
-            no_panic(|| nnm_io::job::model_from_table(table).map_err(PyValueError::new_err))?;
+            no_panic(|| nnm_io::job::model_from_table(table).map_err(input_error))?;
         Ok(Self {
             structure,
             family,
@@ -278,10 +297,8 @@ impl NativeModel {
         out.set_item("shapes", shapes.into_pyarray(py))?;
         let rigid: Vec<bool> = modes.iter().map(|m| m.rigid).collect();
         out.set_item("rigid", rigid.into_pyarray(py))?;
-        let labels: Vec<Option<String>> = modes
-            .iter()
-            .map(|m| m.cyclic.map(|_| m.label()))
-            .collect();
+        let labels: Vec<Option<String>> =
+            modes.iter().map(|m| m.cyclic.map(|_| m.label())).collect();
         out.set_item("label", labels)?;
         let patterns: Vec<Option<&str>> = modes
             .iter()
@@ -311,8 +328,7 @@ impl NativeModel {
                 if let Some(mode) = mode {
                     table.insert("mode".into(), convert::to_toml("mode", mode)?);
                 }
-                nnm_io::job::branch_body(table, &toml::Table::new(), false)
-                    .map_err(PyValueError::new_err)?
+                nnm_io::job::branch_body(table, &toml::Table::new(), false).map_err(input_error)?
             }
         };
         let modes = self.linear_modes(py)?;
@@ -320,21 +336,22 @@ impl NativeModel {
             .map_err(PyValueError::new_err)?;
         let structure = &self.structure;
         let start = no_panic(|| {
-            let start = Start::from_linear_mode(
-                structure,
-                &modes,
-                index,
-                body.settings.start.energy_start,
-            )
-            .map_err(value_error)?;
+            let start =
+                Start::from_linear_mode(structure, &modes, index, body.settings.start.energy_start)
+                    .map_err(value_error)?;
             Ok(if body.settings.start.symmetry {
                 start
             } else {
                 start.unrestricted()
             })
         })?;
+        let threading = py.import("threading")?;
+        let main_thread = threading
+            .call_method0("current_thread")?
+            .is(&threading.call_method0("main_thread")?);
         let mut observer = PyObserver {
             callback: callback.as_ref(),
+            main_thread,
             error: None,
             stopped: false,
         };
@@ -362,10 +379,15 @@ impl NativeModel {
         match result {
             Ok(branch) => {
                 branch_dict(py, &branch, &out)?;
-                let stopped_by_callback = observer.stopped && branch.stop == StopReason::Interrupted;
+                let stopped_by_callback =
+                    observer.stopped && branch.stop == StopReason::Interrupted;
                 out.set_item(
                     "stop_kind",
-                    if stopped_by_callback { "callback" } else { stop_kind(&branch.stop) },
+                    if stopped_by_callback {
+                        "callback"
+                    } else {
+                        stop_kind(&branch.stop)
+                    },
                 )?;
                 let failure = match &branch.stop {
                     StopReason::StepTooSmall(_) => Some(branch.stop.to_string()),
@@ -444,13 +466,25 @@ impl NativeModel {
                 "give either `branch` (a branch of the job file, with its settings) or `mode` and settings",
             ));
         }
-        let job = self.branches.iter().find(|b| b.name == name).ok_or_else(|| {
-            let names: Vec<String> = self.branches.iter().map(|b| format!("`{}`", b.name)).collect();
-            PyValueError::new_err(format!(
-                "the job has no branch `{name}` (its branches: {})",
-                if names.is_empty() { "none".into() } else { names.join(", ") }
-            ))
-        })?;
+        let job = self
+            .branches
+            .iter()
+            .find(|b| b.name == name)
+            .ok_or_else(|| {
+                let names: Vec<String> = self
+                    .branches
+                    .iter()
+                    .map(|b| format!("`{}`", b.name))
+                    .collect();
+                PyValueError::new_err(format!(
+                    "the job has no branch `{name}` (its branches: {})",
+                    if names.is_empty() {
+                        "none".into()
+                    } else {
+                        names.join(", ")
+                    }
+                ))
+            })?;
         if let Some(from) = &job.from_event {
             return Err(PyValueError::new_err(format!(
                 "branch `{name}` starts from event {} of branch `{}`: branch switching is not available from Python yet (run the job with `nnm run`)",
@@ -480,8 +514,14 @@ fn stop_kind(stop: &StopReason) -> &'static str {
 /// the evaluations within one (a large model's point can take seconds). A Python error (the
 /// `KeyboardInterrupt` of a Ctrl-C, or the callback's own) is kept and stops the branch at the
 /// next point; the caller raises it.
+///
+/// Python runs signal handlers on its main thread only, so a branch computed on another thread
+/// (a thread pool, a Dask worker) never takes the GIL to check for them: each acquisition
+/// would wait for the thread holding it (up to the 5 ms switch interval), once per evaluation.
 struct PyObserver<'a> {
     callback: Option<&'a Py<PyAny>>,
+    /// Whether the branch runs on Python's main thread (where Ctrl-C can be checked).
+    main_thread: bool,
     error: Option<PyErr>,
     /// The callback returned `False`.
     stopped: bool,
@@ -491,6 +531,9 @@ impl Observer for &mut PyObserver<'_> {
     fn point(&mut self, p: &BranchPoint) -> ControlFlow<()> {
         if self.error.is_some() {
             return ControlFlow::Break(());
+        }
+        if self.callback.is_none() && !self.main_thread {
+            return ControlFlow::Continue(());
         }
         Python::attach(|py| {
             if let Err(e) = py.check_signals() {
@@ -505,7 +548,10 @@ impl Observer for &mut PyObserver<'_> {
                     self.error = Some(e);
                     ControlFlow::Break(())
                 }
-                Ok(answer) if answer.bind(py).is_instance_of::<PyBool>() && !answer.extract::<bool>(py).unwrap_or(true) => {
+                Ok(answer)
+                    if answer.bind(py).is_instance_of::<PyBool>()
+                        && !answer.extract::<bool>(py).unwrap_or(true) =>
+                {
                     self.stopped = true;
                     ControlFlow::Break(())
                 }
@@ -523,7 +569,7 @@ impl Observer for &mut PyObserver<'_> {
     }
 
     fn evaluation(&mut self, _progress: &EvaluationProgress) {
-        if self.error.is_none() {
+        if self.error.is_none() && self.main_thread {
             Python::attach(|py| {
                 if let Err(e) = py.check_signals() {
                     self.error = Some(e);
@@ -542,10 +588,22 @@ fn branch_dict<'py>(py: Python<'py>, branch: &Branch, out: &Bound<'py, PyDict>) 
     out.set_item("frequency", column(&|p| p.frequency).into_pyarray(py))?;
     out.set_item("period", column(&|p| p.period).into_pyarray(py))?;
     out.set_item("energy_slope", column(&|p| p.energy_slope).into_pyarray(py))?;
-    out.set_item("max_floquet_modulus", column(&|p| p.floquet.max_modulus).into_pyarray(py))?;
-    out.set_item("relative_residual", column(&|p| p.relative_residual).into_pyarray(py))?;
-    out.set_item("full_period_residual", column(&|p| p.full_period_residual).into_pyarray(py))?;
-    out.set_item("reciprocity_defect", column(&|p| p.floquet.reciprocity_defect).into_pyarray(py))?;
+    out.set_item(
+        "max_floquet_modulus",
+        column(&|p| p.floquet.max_modulus).into_pyarray(py),
+    )?;
+    out.set_item(
+        "relative_residual",
+        column(&|p| p.relative_residual).into_pyarray(py),
+    )?;
+    out.set_item(
+        "full_period_residual",
+        column(&|p| p.full_period_residual).into_pyarray(py),
+    )?;
+    out.set_item(
+        "reciprocity_defect",
+        column(&|p| p.floquet.reciprocity_defect).into_pyarray(py),
+    )?;
     out.set_item("step", column(&|p| p.step).into_pyarray(py))?;
     let stable: Vec<bool> = points.iter().map(|p| p.floquet.stable).collect();
     out.set_item("stable", stable.into_pyarray(py))?;
@@ -554,17 +612,26 @@ fn branch_dict<'py>(py: Python<'py>, branch: &Branch, out: &Bound<'py, PyDict>) 
     };
     out.set_item("index", counts(&|p| p.index).into_pyarray(py))?;
     out.set_item("iterations", counts(&|p| p.iterations).into_pyarray(py))?;
-    out.set_item("unstable_pairs", counts(&|p| p.floquet.unstable_pairs).into_pyarray(py))?;
+    out.set_item(
+        "unstable_pairs",
+        counts(&|p| p.floquet.unstable_pairs).into_pyarray(py),
+    )?;
     let width = points.first().map_or(0, |p| p.z0.len());
     let state0 = Array2::from_shape_fn((points.len(), width), |(k, i)| points[k].z0[i]);
     out.set_item("state0", state0.into_pyarray(py))?;
-    let m = points.iter().map(|p| p.floquet.multipliers.len()).max().unwrap_or(0);
+    let m = points
+        .iter()
+        .map(|p| p.floquet.multipliers.len())
+        .max()
+        .unwrap_or(0);
     let multipliers = Array2::from_shape_fn((points.len(), m), |(k, i)| {
         points[k]
             .floquet
             .multipliers
             .get(i)
-            .map_or(Complex64::new(f64::NAN, f64::NAN), |c| Complex64::new(c.0, c.1))
+            .map_or(Complex64::new(f64::NAN, f64::NAN), |c| {
+                Complex64::new(c.0, c.1)
+            })
     });
     out.set_item("multipliers", multipliers.into_pyarray(py))?;
     let events = PyList::empty(py);
@@ -575,7 +642,10 @@ fn branch_dict<'py>(py: Python<'py>, branch: &Branch, out: &Bound<'py, PyDict>) 
         d.set_item("energy", e.point.energy)?;
         d.set_item("frequency", e.point.frequency)?;
         d.set_item("period", e.point.period)?;
-        d.set_item("multiplier", PyComplex::from_doubles(py, e.multiplier.0, e.multiplier.1))?;
+        d.set_item(
+            "multiplier",
+            PyComplex::from_doubles(py, e.multiplier.0, e.multiplier.1),
+        )?;
         d.set_item("multiplicity", e.multiplicity)?;
         d.set_item("after_point", e.after)?;
         d.set_item("arclength_uncertainty", e.arclength_uncertainty)?;
