@@ -356,6 +356,7 @@ impl NativeModel {
             stopped: false,
         };
         let settings = &body.settings;
+        let clock = std::time::Instant::now();
         let result = py.detach(|| {
             no_panic(|| {
                 Ok(nnm::continue_branch_observed(
@@ -366,6 +367,7 @@ impl NativeModel {
                 ))
             })
         })?;
+        let wall_time = clock.elapsed().as_secs_f64();
         if let Some(error) = observer.error {
             return Err(error);
         }
@@ -376,6 +378,7 @@ impl NativeModel {
         out.set_item("pattern", wave_name(mode.cyclic.and_then(|c| c.pattern)))?;
         out.set_item("linear_frequency", start.omega)?;
         out.set_item("dofs", structure.dofs())?;
+        out.set_item("wall_time", wall_time)?;
         match result {
             Ok(branch) => {
                 branch_dict(py, &branch, &out)?;

@@ -82,3 +82,10 @@ def test_modes_labels_and_lookup() -> None:
     branch = nnm.backbone(nnm.bladed_disk(), "1,5", pattern="sin", max_points=2, progress=False)
     assert branch.mode == k and branch.mode_label == (1, 5) and branch.pattern == "sin"
     assert nnm.bladed_disk().cyclic == (30, 2) and nnm.duffing().cyclic is None
+
+
+def test_the_package_docstring_example_runs() -> None:
+    import doctest
+
+    failures, tried = doctest.testmod(nnm)
+    assert tried > 0 and failures == 0

@@ -77,7 +77,9 @@ class Branch:
     ended, in words) and ``stop_kind`` (``"energy-max"``, ``"frequency-shift-max"``,
     ``"max-points"``, ``"callback"``, ``"interrupted"``, ``"step-too-small"`` or
     ``"first-point"``), ``linear_frequency`` (of the starting mode), the starting ``mode``
-    (index), ``mode_label`` and ``pattern``, and work counters in ``stats``.
+    (index), ``mode_label`` and ``pattern``, work counters in ``stats``, and ``wall_time``,
+    the seconds the continuation took in the library (the rest of a call's time is modal
+    analysis and the bindings' own).
     """
 
     energy: np.ndarray
@@ -103,6 +105,7 @@ class Branch:
     mode_label: tuple[int, int] | None
     pattern: str | None
     stats: dict[str, int]
+    wall_time: float
     model: Model
 
     def __init__(self, model: Model, raw: dict[str, Any]) -> None:
