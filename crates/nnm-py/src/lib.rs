@@ -586,39 +586,34 @@ impl Observer for &mut PyObserver<'_> {
 /// `out`. Multipliers are a `points × m` complex array (NaN where a point has fewer).
 fn branch_dict<'py>(py: Python<'py>, branch: &Branch, out: &Bound<'py, PyDict>) -> PyResult<()> {
     let points = &branch.points;
-    let column = |f: &dyn Fn(&BranchPoint) -> f64| -> Vec<f64> { points.iter().map(f).collect() };
-    out.set_item("energy", column(&|p| p.energy).into_pyarray(py))?;
-    out.set_item("frequency", column(&|p| p.frequency).into_pyarray(py))?;
-    out.set_item("period", column(&|p| p.period).into_pyarray(py))?;
-    out.set_item("energy_slope", column(&|p| p.energy_slope).into_pyarray(py))?;
-    out.set_item(
-        "max_floquet_modulus",
-        column(&|p| p.floquet.max_modulus).into_pyarray(py),
-    )?;
-    out.set_item(
-        "relative_residual",
-        column(&|p| p.relative_residual).into_pyarray(py),
-    )?;
-    out.set_item(
-        "full_period_residual",
-        column(&|p| p.full_period_residual).into_pyarray(py),
-    )?;
-    out.set_item(
-        "reciprocity_defect",
-        column(&|p| p.floquet.reciprocity_defect).into_pyarray(py),
-    )?;
-    out.set_item("step", column(&|p| p.step).into_pyarray(py))?;
+    type Column = (&'static str, fn(&BranchPoint) -> f64);
+    let columns: [Column; 9] = [
+        ("energy", |p| p.energy),
+        ("frequency", |p| p.frequency),
+        ("period", |p| p.period),
+        ("energy_slope", |p| p.energy_slope),
+        ("max_floquet_modulus", |p| p.floquet.max_modulus),
+        ("relative_residual", |p| p.relative_residual),
+        ("full_period_residual", |p| p.full_period_residual),
+        ("reciprocity_defect", |p| p.floquet.reciprocity_defect),
+        ("step", |p| p.step),
+    ];
+    for (name, value) in columns {
+        let values: Vec<f64> = points.iter().map(value).collect();
+        out.set_item(name, values.into_pyarray(py))?;
+    }
+    type Count = (&'static str, fn(&BranchPoint) -> usize);
+    let counts: [Count; 3] = [
+        ("index", |p| p.index),
+        ("iterations", |p| p.iterations),
+        ("unstable_pairs", |p| p.floquet.unstable_pairs),
+    ];
+    for (name, value) in counts {
+        let values: Vec<i64> = points.iter().map(|p| value(p) as i64).collect();
+        out.set_item(name, values.into_pyarray(py))?;
+    }
     let stable: Vec<bool> = points.iter().map(|p| p.floquet.stable).collect();
     out.set_item("stable", stable.into_pyarray(py))?;
-    let counts = |f: &dyn Fn(&BranchPoint) -> usize| -> Vec<i64> {
-        points.iter().map(|p| f(p) as i64).collect()
-    };
-    out.set_item("index", counts(&|p| p.index).into_pyarray(py))?;
-    out.set_item("iterations", counts(&|p| p.iterations).into_pyarray(py))?;
-    out.set_item(
-        "unstable_pairs",
-        counts(&|p| p.floquet.unstable_pairs).into_pyarray(py),
-    )?;
     let width = points.first().map_or(0, |p| p.z0.len());
     let state0 = Array2::from_shape_fn((points.len(), width), |(k, i)| points[k].z0[i]);
     out.set_item("state0", state0.into_pyarray(py))?;
