@@ -680,7 +680,7 @@ fn build_element(
         &spec.kind,
         spec.dofs.as_deref(),
         spec.coefficient,
-        spec.exponent,
+        spec.exponent.map(i64::from),
     )
     .map(Element::Spring))
 }
@@ -691,12 +691,12 @@ pub fn spring(
     kind: &str,
     dofs: Option<&[usize]>,
     coefficient: Option<f64>,
-    exponent: Option<u32>,
+    exponent: Option<i64>,
 ) -> Result<PolynomialSpring, String> {
     let exponent = match (kind, exponent) {
         ("cubic", None | Some(3)) => 3,
         ("cubic", Some(p)) => return Err(format!("a cubic element has exponent 3, not {p}")),
-        ("polynomial", Some(p)) if (2..=31).contains(&p) => p,
+        ("polynomial", Some(p)) if (2..=31).contains(&p) => p as u32,
         ("polynomial", Some(p)) => return Err(format!("exponent must be 2 to 31, got {p}")),
         ("polynomial", None) => return Err("a polynomial element needs `exponent`".into()),
         (other, _) => {

@@ -53,21 +53,17 @@ fn matrix_from_py(name: &'static str, value: &Bound<'_, PyAny>) -> PyResult<Matr
             PyReadonlyArray1<'_, f64>,
         ) = tuple.extract()?;
         if rows != cols {
-            let expected = if name == "mass" { rows } else { cols.max(rows) };
-            return Err(model_error(ModelError::WrongSize {
-                name,
-                rows,
-                cols,
-                expected,
-            }));
+            // As for a Matrix Market file that is not square.
+            return Err(PyValueError::new_err(format!(
+                "{name} matrix is {rows}x{cols}, not square"
+            )));
         }
         let (i, j, v) = (i.as_slice()?, j.as_slice()?, v.as_slice()?);
-        let index = |k: i64| usize::try_from(k).unwrap_or(usize::MAX);
         let triplets: Vec<(usize, usize, f64)> = i
             .iter()
             .zip(j)
             .zip(v)
-            .map(|((&i, &j), &v)| (index(i), index(j), v))
+            .map(|((&i, &j), &v)| (dof_index(i), dof_index(j), v))
             .collect();
         let sparse = SparseMatrix::from_triplets(rows, &triplets)
             .map_err(|m| PyValueError::new_err(format!("{name} matrix {m}")))?;
@@ -77,6 +73,12 @@ fn matrix_from_py(name: &'static str, value: &Bound<'_, PyAny>) -> PyResult<Matr
     let a = array.as_array();
     let (rows, cols) = a.dim();
     Ok(Matrix::from_fn(rows, cols, |i, j| a[(i, j)]))
+}
+
+/// A 0-based index from Python; a negative one becomes an index out of every range, which the
+/// library's own checks then refuse by name.
+fn dof_index(k: i64) -> usize {
+    usize::try_from(k).unwrap_or(usize::MAX)
 }
 
 /// A job-file message about keyword arguments: `TypeError` for a value of the wrong type
@@ -103,7 +105,7 @@ fn element_from_py(index: usize, n: usize, value: &Bound<'_, PyAny>) -> PyResult
     let element_error =
         |m: String| PyValueError::new_err(format!("nonlinear element {}: {m}", index + 1));
     if kind != "tensor" {
-        let (_, dofs, coefficient, exponent): (String, Vec<usize>, f64, Option<u32>) =
+        let (_, dofs, coefficient, exponent): (String, Vec<usize>, f64, Option<i64>) =
             tuple.extract()?;
         return nnm_io::job::spring(&kind, Some(&dofs), Some(coefficient), exponent)
             .map(Element::Spring)
@@ -116,13 +118,12 @@ fn element_from_py(index: usize, n: usize, value: &Bound<'_, PyAny>) -> PyResult
         PyReadonlyArray2<'_, i64>,
         PyReadonlyArray1<'_, f64>,
     ) = tuple.extract()?;
-    let index_of = |k: i64| usize::try_from(k).unwrap_or(usize::MAX);
     let (q, c) = (q_subs.as_array(), c_subs.as_array());
     let quadratic = q
         .rows()
         .into_iter()
         .zip(q_vals.as_array())
-        .map(|(r, &v)| (index_of(r[0]), index_of(r[1]), index_of(r[2]), v))
+        .map(|(r, &v)| (dof_index(r[0]), dof_index(r[1]), dof_index(r[2]), v))
         .collect();
     let cubic = c
         .rows()
@@ -130,10 +131,10 @@ fn element_from_py(index: usize, n: usize, value: &Bound<'_, PyAny>) -> PyResult
         .zip(c_vals.as_array())
         .map(|(r, &v)| {
             (
-                index_of(r[0]),
-                index_of(r[1]),
-                index_of(r[2]),
-                index_of(r[3]),
+                dof_index(r[0]),
+                dof_index(r[1]),
+                dof_index(r[2]),
+                dof_index(r[3]),
                 v,
             )
         })

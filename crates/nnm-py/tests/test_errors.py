@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import nnm
 from conftest import cli_error
@@ -107,6 +108,12 @@ def test_shapes_and_types_are_checked_before_the_library() -> None:
         nnm.Model(TWO, CHAIN, [nnm.Cubic([0.5], 1.0)])
     with pytest.raises(ValueError, match="0-based"):
         nnm.Model(TWO, CHAIN, [nnm.Cubic([-1], 1.0)])
+    with pytest.raises(ValueError, match="^nonlinear element 1: exponent must be 2 to 31, got -3$"):
+        nnm.Model(TWO, CHAIN, [nnm.Polynomial([0], 1.0, -3)])
+    with pytest.raises(ValueError, match="^mass matrix is 2x3, not square$"):
+        nnm.Model(sp.csr_array(np.ones((2, 3))), CHAIN)
+    with pytest.raises(ValueError, match="^stiffness matrix is 3x3, expected 2x2$"):
+        nnm.Model(TWO, sp.csr_array(np.eye(3)))
     with pytest.raises(TypeError, match="nonlinear element 1 must be"):
         nnm.Model(TWO, CHAIN, ["cubic"])
     with pytest.raises(ValueError, match=r"shape \(m, 4\)"):
