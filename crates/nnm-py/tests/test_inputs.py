@@ -187,3 +187,23 @@ def test_family_defaults_are_the_job_files(family, function, write_job) -> None:
         a, b = (x.toarray() if sp.issparse(x) else x for x in (a, b))
         assert np.array_equal(a, b), name
     assert np.array_equal(nnm.modes(from_python).frequencies, nnm.modes(from_job).frequencies)
+
+
+def test_a_cyclic_model_from_matrices_has_the_familys_labels_and_branches() -> None:
+    """The bladed disk rebuilt from its matrices and springs (`cyclic=(30, 2)`): the same
+    (n, d) labels and, from (1,5), the same backbone as the family (to round-off: the two may
+    hold K in different storage)."""
+    family = nnm.bladed_disk()
+    K = family.K.toarray() if sp.issparse(family.K) else family.K
+    M = family.M.toarray() if sp.issparse(family.M) else family.M
+    springs = [nnm.Cubic([2 * i + 1, 2 * i], 0.1) for i in range(30)]  # blade on its disk
+    rebuilt = nnm.Model(M, K, springs, cyclic=(30, 2))
+    assert rebuilt.cyclic == (30, 2)
+    a, b = nnm.modes(family), nnm.modes(rebuilt)
+    assert a.labels == b.labels and a.patterns == b.patterns
+    np.testing.assert_allclose(a.frequencies, b.frequencies, rtol=1e-12, atol=1e-14)
+    settings = {"frequency_shift_max": 0.05, "events": False, "progress": False}
+    x, y = nnm.backbone(family, (1, 5), **settings), nnm.backbone(rebuilt, (1, 5), **settings)
+    assert len(x) == len(y) and x.mode == y.mode
+    np.testing.assert_allclose(x.frequency, y.frequency, rtol=1e-10)
+    np.testing.assert_allclose(x.energy, y.energy, rtol=1e-8)
