@@ -68,8 +68,8 @@ mod tests {
     use super::*;
 
     /// Keyword arguments reach the job file's parser as the TOML a user would have written:
-    /// Python's `True` is a boolean (not the integer 1), numpy scalars are numbers, `None`
-    /// means "not given".
+    /// Python's `True` is a boolean (not the integer 1), integer-like objects (numpy's scalars)
+    /// are integers, `None` means "not given".
     #[test]
     fn keyword_values_become_job_file_values() {
         Python::initialize();
@@ -80,12 +80,16 @@ mod tests {
             dict.set_item("tolerance", 1e-9).unwrap();
             dict.set_item("phase", "flow-orthogonal").unwrap();
             dict.set_item("energy_start", py.None()).unwrap();
-            let numpy_int = py
-                .import("numpy")
-                .and_then(|np| np.getattr("int64")?.call1((5,)));
-            if let Ok(five) = numpy_int {
-                dict.set_item("target_iterations", five).unwrap();
-            }
+            // An integer that is not an `int`, as numpy's scalars are: it has `__index__`.
+            let locals = PyDict::new(py);
+            py.run(
+                c"class Index:\n    def __index__(self):\n        return 5\nfive = Index()",
+                None,
+                Some(&locals),
+            )
+            .unwrap();
+            let five = locals.get_item("five").unwrap().unwrap();
+            dict.set_item("target_iterations", five).unwrap();
             let table = table_from_dict(&dict).unwrap();
             assert_eq!(table["events"], toml::Value::Boolean(true));
             assert_eq!(table["max_points"], toml::Value::Integer(7));
@@ -95,9 +99,7 @@ mod tests {
                 toml::Value::String("flow-orthogonal".into())
             );
             assert!(!table.contains_key("energy_start"));
-            if table.contains_key("target_iterations") {
-                assert_eq!(table["target_iterations"], toml::Value::Integer(5));
-            }
+            assert_eq!(table["target_iterations"], toml::Value::Integer(5));
             let settings =
                 nnm_io::job::branch_body(table, &toml::Table::new(), true).expect("valid settings");
             assert_eq!(settings.settings.limits.max_points, 7);

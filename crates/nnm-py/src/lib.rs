@@ -675,3 +675,24 @@ fn _nnm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A panic inside the library reaches Python as a `RuntimeError` with its message, not as
+    /// pyo3's `PanicException` (a `BaseException`, which `except Exception` would not catch).
+    #[test]
+    fn a_panic_becomes_a_runtime_error() {
+        Python::initialize();
+        let error = no_panic::<()>(|| panic!("index out of bounds")).unwrap_err();
+        Python::attach(|py| {
+            assert!(error.is_instance_of::<PyRuntimeError>(py));
+            assert_eq!(
+                error.value(py).to_string(),
+                "internal error (please report): index out of bounds"
+            );
+        });
+        assert_eq!(no_panic(|| Ok(7)).unwrap(), 7);
+    }
+}
