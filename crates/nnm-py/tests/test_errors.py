@@ -122,6 +122,12 @@ def test_shapes_and_types_are_checked_before_the_library() -> None:
         nnm.backbone(nnm.duffing(), 0, energy_max=1.0, tolerance=object())
     with pytest.raises(TypeError):
         nnm.backbone(nnm.duffing(), 0, energy_max=1.0, name="x")
+    with pytest.raises(TypeError, match="needs `mode`"):
+        nnm.backbone(nnm.duffing(), energy_max=1.0)
+    with pytest.raises(TypeError, match="either `branch`"):
+        nnm.backbone(nnm.duffing(), 0, branch="b")
+    with pytest.raises(ValueError, match="no branch `b`"):
+        nnm.backbone(nnm.duffing(), branch="b")
     with pytest.raises(FileNotFoundError):
         nnm.Model.from_job("no/such/job.toml")
     branch = nnm.backbone(nnm.duffing(), 0, max_points=3)
@@ -158,3 +164,15 @@ def test_a_first_point_that_fails_raises_with_no_points() -> None:
         nnm.backbone(nnm.duffing(), 0, energy_max=1e9, energy_start=1e6, max_iterations=1)
     assert len(raised.value.branch) == 0
     assert raised.value.branch.state0.shape == (0, 2)
+
+
+def test_a_job_branch_switched_from_an_event_is_refused_by_name(write_job) -> None:
+    job = write_job(
+        '[model]\nfamily = "two-dof"\n[settings]\nenergy_max = 100.0\n'
+        '[[branch]]\nname = "in-phase"\nmode = 0\n'
+        '[[branch]]\nname = "switched"\nstart = { branch = "in-phase", event = 0 }\n'
+    )
+    model = nnm.Model.from_job(job)
+    assert model.branches == ["in-phase", "switched"]
+    with pytest.raises(ValueError, match="^branch `switched` starts from event 0 of branch `in-phase`"):
+        nnm.backbone(model, branch="switched")

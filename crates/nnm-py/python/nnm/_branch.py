@@ -225,6 +225,8 @@ def backbone(
     """
     if not isinstance(model, Model):
         raise TypeError(f"model must be an nnm.Model, got {type(model).__name__}")
+    if mode is None and branch is None:
+        raise TypeError('backbone() needs `mode` (an index, (n, d) or "n,d") or `branch` (a job file\'s)')
     for key in ("name", "start"):
         if key in settings:
             raise TypeError(f"backbone() got an unexpected keyword argument '{key}'")
