@@ -207,3 +207,17 @@ def test_a_cyclic_model_from_matrices_has_the_familys_labels_and_branches() -> N
     assert len(x) == len(y) and x.mode == y.mode
     np.testing.assert_allclose(x.frequency, y.frequency, rtol=1e-10)
     np.testing.assert_allclose(x.energy, y.energy, rtol=1e-8)
+
+
+def test_a_large_sparse_model_gets_its_lowest_modes_without_a_dense_matrix() -> None:
+    """A chain of 3,000 unit masses fixed at both ends (K = tridiag(-1, 2, -1), M = I):
+    above 2,000 dofs a sparse model gets its 20 lowest modes by shift-invert, with no n x n
+    array, and they are the exact ``2 sin(k pi / (2 (n + 1)))``."""
+    n = 3000
+    K = sp.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="csr")
+    model = nnm.Model(sp.identity(n, format="csr"), K, [nnm.Cubic([n - 1], 1.0)])
+    assert sp.issparse(model.K) and model.K.nnz == 3 * n - 2
+    modes = nnm.modes(model)
+    assert len(modes) == 20 and modes.shapes.shape == (n, 20)
+    exact = 2 * np.sin(np.arange(1, 21) * np.pi / (2 * (n + 1)))
+    np.testing.assert_allclose(modes.frequencies, exact, rtol=1e-9)
