@@ -176,10 +176,10 @@ fn wave_name(pattern: Option<StandingWave>) -> Option<&'static str> {
 impl NativeModel {
     /// A built-in family from its job-file keys (`family` and its parameters).
     #[staticmethod]
-    fn from_table(table: &Bound<'_, PyDict>) -> PyResult<Self> {
+    fn from_table(py: Python<'_>, table: &Bound<'_, PyDict>) -> PyResult<Self> {
         let table = table_from_dict(table)?;
         let (structure, family) =
-            no_panic(|| nnm_io::job::model_from_table(table).map_err(input_error))?;
+            py.detach(|| no_panic(|| nnm_io::job::model_from_table(table).map_err(input_error)))?;
         Ok(Self {
             structure,
             family,
@@ -187,10 +187,13 @@ impl NativeModel {
         })
     }
 
-    /// The model (and branches) of a job file, read as `nnm run` reads it.
+    /// The model (and branches) of a job file, read as `nnm run` reads it (without the GIL:
+    /// a finite-element export can take a while to read).
     #[staticmethod]
-    fn from_job(path: PathBuf) -> PyResult<Self> {
-        let job = no_panic(|| nnm_io::job::load_job(&path).map_err(|e| job_error(&path, e)))?;
+    fn from_job(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let job = py.detach(|| {
+            no_panic(|| nnm_io::job::load_job(&path).map_err(|e| job_error(&path, e)))
+        })?;
         Ok(Self {
             structure: job.structure,
             family: job.family,
@@ -203,6 +206,7 @@ impl NativeModel {
     #[staticmethod]
     #[pyo3(signature = (mass, stiffness, elements, fixed_dofs=None, cyclic=None))]
     fn general(
+        py: Python<'_>,
         mass: &Bound<'_, PyAny>,
         stiffness: &Bound<'_, PyAny>,
         elements: &Bound<'_, PyList>,
@@ -221,9 +225,12 @@ impl NativeModel {
             sectors,
             dofs_per_sector,
         });
-        let structure = no_panic(|| {
-            nnm_io::job::general_model(mass, stiffness, elements, fixed_dofs.as_deref(), cyclic)
-                .map_err(model_error)
+        // Factorising a large mass can take a while: without the GIL.
+        let structure = py.detach(|| {
+            no_panic(|| {
+                nnm_io::job::general_model(mass, stiffness, elements, fixed_dofs.as_deref(), cyclic)
+                    .map_err(model_error)
+            })
         })?;
         Ok(Self {
             structure,
