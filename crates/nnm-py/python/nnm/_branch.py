@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any, Callable, NamedTuple
 import numpy as np
 
 from ._errors import ContinuationError
-from ._model import Model, _label
+from ._model import Model, _label, _parse_label
 
 if TYPE_CHECKING:
     import matplotlib.axes
@@ -113,7 +113,7 @@ class Branch:
         events = raw.pop("events")
         label = raw.pop("mode_label")
         self.mode = raw.pop("mode_index")
-        self.mode_label = None if label is None else tuple(int(v) for v in label.split(","))
+        self.mode_label = _parse_label(label)
         raw.pop("error", None)
         raw.pop("dofs", None)
         for key, value in raw.items():

@@ -299,6 +299,14 @@ class Modes:
         )
 
 
+def _parse_label(text: str | None) -> tuple[int, int] | None:
+    """``"n,d"`` (as the library writes labels) as ``(n, d)``."""
+    if text is None:
+        return None
+    n, d = text.split(",")
+    return int(n), int(d)
+
+
 def _label(label: Any) -> str:
     if isinstance(label, tuple):
         n, d = label
@@ -311,7 +319,7 @@ def modes(model: Model) -> Modes:
     them; the 20 lowest for sparse models above 2,000 dofs). Every mode is checked against
     ``K`` and ``M`` as given (docs/method.md §10)."""
     raw = model._native.modes()
-    labels = [None if s is None else tuple(int(v) for v in s.split(",")) for s in raw["label"]]
+    labels = [_parse_label(s) for s in raw["label"]]
     return Modes(raw["frequency"], raw["shapes"], raw["rigid"], labels, raw["pattern"])
 
 
