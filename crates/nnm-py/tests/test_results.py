@@ -89,3 +89,22 @@ def test_the_package_docstring_example_runs() -> None:
 
     failures, tried = doctest.testmod(nnm)
     assert tried > 0 and failures == 0
+
+
+def test_branches_and_failures_pickle_for_other_processes(two_dof_branch) -> None:
+    """Process pools and Dask send results and exceptions between processes: the arrays and
+    events travel, the model (held by the library) does not."""
+    import pickle
+
+    copy = pickle.loads(pickle.dumps(two_dof_branch))
+    for name in ("energy", "frequency", "state0", "multipliers", "stable"):
+        assert np.array_equal(getattr(copy, name), getattr(two_dof_branch, name))
+    assert [e.energy for e in copy.events] == [e.energy for e in two_dof_branch.events]
+    np.testing.assert_array_equal(copy.displacement0, two_dof_branch.displacement0)
+    with pytest.raises(ValueError, match="without its model"):
+        copy.motion(0)
+    with pytest.raises(nnm.ContinuationError) as raised:
+        nnm.backbone(nnm.duffing(), 0, energy_max=100.0, max_iterations=1, min_step=0.05, tolerance=1e-10)
+    error = pickle.loads(pickle.dumps(raised.value))
+    assert type(error) is nnm.ContinuationError and str(error) == str(raised.value)
+    assert np.array_equal(error.branch.energy, raised.value.branch.energy)

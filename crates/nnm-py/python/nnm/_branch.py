@@ -106,7 +106,7 @@ class Branch:
     pattern: str | None
     stats: dict[str, int]
     wall_time: float
-    model: Model
+    model: Model | None
 
     def __init__(self, model: Model, raw: dict[str, Any]) -> None:
         self.model = model
@@ -126,6 +126,16 @@ class Branch:
     def __len__(self) -> int:
         return len(self.energy)
 
+    def __getstate__(self) -> dict[str, Any]:
+        # The model lives in the library and does not pickle: a branch sent to another process
+        # (a process pool, a Dask worker's result) keeps its arrays but not `motion()`.
+        state = dict(self.__dict__)
+        state["model"] = None
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
     def __repr__(self) -> str:
         mode = self.mode if self.mode_label is None else self.mode_label
         return f"<nnm.Branch of mode {mode}: {len(self)} points, {len(self.events)} events, {self.stop}>"
@@ -138,13 +148,15 @@ class Branch:
     @property
     def displacement0(self) -> np.ndarray:
         """The initial displacements ``x0`` (points × n): the NNM's deflected shape at rest."""
-        return self.state0[:, : self.model.dofs]
+        return self.state0[:, : self.state0.shape[1] // 2]
 
     def motion(self, i: int, samples: int = 100, tolerance: float = 1e-10) -> Motion:
         """The motion of point ``i`` over one period, at ``samples + 1`` equal times, each
         segment integrated adaptively to relative ``tolerance`` (so sampling costs no
         accuracy)."""
         i = range(len(self))[i]  # IndexError for a point the branch does not have
+        if self.model is None:
+            raise ValueError("this branch was unpickled without its model: motion() needs the model")
         z = self.model._native.motion(self.state0[i], float(self.period[i]), int(samples), float(tolerance))
         n = self.model.dofs
         t = np.linspace(0.0, self.period[i], z.shape[0])

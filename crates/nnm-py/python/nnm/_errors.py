@@ -31,3 +31,7 @@ class ContinuationError(NumericalError):
     def __init__(self, message: str, branch: "Branch") -> None:
         super().__init__(message)
         self.branch = branch
+
+    def __reduce__(self) -> tuple:
+        # Pickled with its branch (process pools and Dask send exceptions between processes).
+        return (type(self), (str(self), self.branch))
