@@ -43,7 +43,11 @@ out_of_phase = nnm.backbone(model, mode=1, energy_max=100.0)
 for e in in_phase.events:
     print(f"{e.kind} at E = {e.energy:.6g}, f = {e.frequency:.6g} rad/s")
 
-ax = plot.fep([in_phase, out_of_phase], labels=["in phase", "out of phase"])
+# The family that crosses the in-phase one at its branch point (nnm run's `start = {...}`).
+crossing = in_phase.switch(0, energy_max=100.0)
+print(crossing, "switched with the", crossing.switched_from["phase"], "phase condition")
+
+ax = plot.fep([in_phase, out_of_phase, crossing], labels=["in phase", "out of phase", "switched"])
 ax.figure.savefig(out / "two-dof-fep.png", dpi=120)
 
 # %% 3. The same model sparse: scipy matrices stay sparse inside the library.

@@ -9,7 +9,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use nnm::bifurcation::{Event, switch_branch};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, linear_modes};
-use nnm::shooting::{EvaluationProgress, PhaseCondition};
+use nnm::shooting::EvaluationProgress;
 use nnm::{Branch, BranchPoint, Observer, Start, StopReason, continue_branch_observed};
 use nnm_io::job::{BranchJob, EventStart, load_job, resolve_mode};
 use nnm_io::output::{BranchInfo, BranchWriter, SwitchedFrom, write_modes_csv};
@@ -336,16 +336,7 @@ pub fn compute_all(
     Ok(outcomes.into_iter().map(|o| o.expect("all done")).collect())
 }
 
-/// The phase condition's name in job files.
-pub fn phase_name(phase: PhaseCondition) -> &'static str {
-    match phase {
-        PhaseCondition::ZeroVelocity => "zero-velocity",
-        PhaseCondition::FlowOrthogonal => "flow-orthogonal",
-    }
-}
-
-/// Offset along the new family's direction at a switch, relative to the event's amplitude.
-pub const SWITCH_AMPLITUDE: f64 = 0.05;
+pub use nnm_io::job::{SWITCH_AMPLITUDE, phase_name};
 
 /// The start of a branch: its linear mode, or the switch at its parent's event (which also
 /// records, in `info`, where the branch came from).

@@ -35,6 +35,7 @@ use nnm::model::{
     PolynomialSpring, PolynomialTensor, Structure, TensorError, VonKarmanBeam, duffing, two_dof,
 };
 use nnm::modes::{LinearMode, StandingWave, find_mode};
+use nnm::shooting::PhaseCondition;
 use serde::Deserialize;
 
 use crate::matrix_market::{MarketMatrix, MatrixMarketError, read_matrix_market};
@@ -314,6 +315,19 @@ pub fn resolve_mode(
     }
     Ok(index)
 }
+
+/// The phase condition's name in job files (`phase = "..."`).
+pub fn phase_name(phase: PhaseCondition) -> &'static str {
+    match phase {
+        PhaseCondition::ZeroVelocity => "zero-velocity",
+        PhaseCondition::FlowOrthogonal => "flow-orthogonal",
+    }
+}
+
+/// Offset along the new family's direction at a switch (`start = { branch, event }`),
+/// relative to the event's amplitude: what `nnm run` and the Python bindings both use, so
+/// that a switched branch is the same from either.
+pub const SWITCH_AMPLITUDE: f64 = 0.05;
 
 /// Reads and validates a job file. Matrix files are resolved relative to the job's folder.
 pub fn load_job(path: &Path) -> Result<Job, JobError> {

@@ -16,7 +16,7 @@ use std::ops::ControlFlow;
 use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
 
-use nnm::bifurcation::Event;
+use nnm::bifurcation::{Event, SwitchError};
 use nnm::model::{CyclicSymmetry, Matrix, ModelError, PolynomialTensor, SparseMatrix, Structure};
 use nnm::modes::{LinearMode, StandingWave, linear_modes};
 use nnm::shooting::EvaluationProgress;
@@ -24,7 +24,9 @@ use nnm::{Branch, BranchPoint, MechanicalSystem, Observer, Start, StopReason};
 use nnm_io::job::{BranchBody, BranchJob, Element, JobError};
 use numpy::ndarray::Array2;
 use numpy::{Complex64, IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
-use pyo3::exceptions::{PyFileNotFoundError, PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::exceptions::{
+    PyFileNotFoundError, PyIndexError, PyRuntimeError, PyTypeError, PyValueError,
+};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyComplex, PyDict, PyList, PyTuple};
 
@@ -39,6 +41,26 @@ struct NativeModel {
     family: String,
     /// The `[[branch]]` entries of the job file (empty for other models).
     branches: Vec<BranchJob>,
+}
+
+/// What a switch at one of a computed branch's events needs from it: the start it was
+/// computed from and its located events (kept in the library's types, opaque to Python).
+#[pyclass(frozen, module = "nnm._nnm")]
+struct NativeBranch {
+    start: Start,
+    events: Vec<Event>,
+}
+
+/// `nnm.NumericalError(message)`: a failure on valid input (the class is the Python layer's).
+fn numerical_error(py: Python<'_>, message: String) -> PyErr {
+    match py
+        .import("nnm._errors")
+        .and_then(|m| m.getattr("NumericalError"))
+        .and_then(|class| class.call1((message,)))
+    {
+        Ok(error) => PyErr::from_value(error),
+        Err(e) => e,
+    }
 }
 
 /// One matrix as the Python layer hands it over: a 2-D float64 array, or a sparse matrix's
@@ -353,73 +375,67 @@ impl NativeModel {
                 start.unrestricted()
             })
         })?;
-        let threading = py.import("threading")?;
-        let main_thread = threading
-            .call_method0("current_thread")?
-            .is(&threading.call_method0("main_thread")?);
-        let mut observer = PyObserver {
-            callback: callback.as_ref(),
-            main_thread,
-            error: None,
-            stopped: false,
-        };
-        let settings = &body.settings;
-        let clock = std::time::Instant::now();
-        let result = py.detach(|| {
-            no_panic(|| {
-                Ok(nnm::continue_branch_observed(
-                    structure,
-                    &start,
-                    settings,
-                    &mut observer,
-                ))
-            })
-        })?;
-        let wall_time = clock.elapsed().as_secs_f64();
-        if let Some(error) = observer.error {
-            return Err(error);
-        }
-        let out = PyDict::new(py);
+        let out = self.follow(py, start, &body.settings, callback)?;
         let mode = &modes[index];
         out.set_item("mode_index", index)?;
         out.set_item("mode_label", mode.cyclic.map(|_| mode.label()))?;
         out.set_item("pattern", wave_name(mode.cyclic.and_then(|c| c.pattern)))?;
-        out.set_item("linear_frequency", start.omega)?;
-        out.set_item("dofs", structure.dofs())?;
-        out.set_item("wall_time", wall_time)?;
-        match result {
-            Ok(branch) => {
-                branch_dict(py, &branch, &out)?;
-                let stopped_by_callback =
-                    observer.stopped && branch.stop == StopReason::Interrupted;
-                out.set_item(
-                    "stop_kind",
-                    if stopped_by_callback {
-                        "callback"
-                    } else {
-                        stop_kind(&branch.stop)
-                    },
-                )?;
-                let failure = match &branch.stop {
-                    StopReason::StepTooSmall(_) => Some(branch.stop.to_string()),
-                    _ => None,
-                };
-                out.set_item("error", failure)?;
+        Ok(out)
+    }
+
+    /// Follows the family through event `event` of a computed branch (`parent`, the
+    /// `"native"` entry of its dict): a branch point's other family, or a period doubling's
+    /// family of twice the period, started `SWITCH_AMPLITUDE` of the amplitude away along
+    /// null direction `direction` (docs/method.md §9), as `nnm run` does for
+    /// `start = { branch, event }`. `settings` are a switched `[[branch]]`'s keys.
+    #[pyo3(signature = (parent, event, direction, settings, callback=None))]
+    fn switch<'py>(
+        &self,
+        py: Python<'py>,
+        parent: PyRef<'py, NativeBranch>,
+        event: usize,
+        direction: usize,
+        settings: &Bound<'py, PyDict>,
+        callback: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let table = table_from_dict(settings)?;
+        let body =
+            nnm_io::job::branch_body(table, &toml::Table::new(), true).map_err(input_error)?;
+        let count = parent.events.len();
+        let located = parent.events.get(event).ok_or_else(|| {
+            PyIndexError::new_err(format!(
+                "the branch has {count} event{}, so no event {event}",
+                if count == 1 { "" } else { "s" }
+            ))
+        })?;
+        let (structure, parent_start) = (&self.structure, &parent.start);
+        let switch = py.detach(|| {
+            no_panic(|| {
+                Ok(nnm::bifurcation::switch_branch(
+                    structure,
+                    parent_start,
+                    located,
+                    &body.settings,
+                    nnm_io::job::SWITCH_AMPLITUDE,
+                    direction,
+                ))
+            })
+        })?;
+        let switch = switch.map_err(|e| match e {
+            // Asking to switch at a fold or a Krein collision is the caller's mistake.
+            SwitchError::NotABifurcation(_) | SwitchError::NoSuchDirection { .. } => {
+                PyValueError::new_err(e.to_string())
             }
-            Err(e) => {
-                let empty = Branch {
-                    points: Vec::new(),
-                    events: Vec::new(),
-                    stop: StopReason::StepTooSmall(String::new()),
-                    stats: Default::default(),
-                    omega: start.omega,
-                };
-                branch_dict(py, &empty, &out)?;
-                out.set_item("stop", e.to_string())?;
-                out.set_item("stop_kind", "first-point")?;
-                out.set_item("error", e.to_string())?;
-            }
-        }
+            _ => numerical_error(py, format!("cannot switch at event {event}: {e}")),
+        })?;
+        let phase = switch.start.phase.unwrap_or(body.settings.shooting.phase);
+        let out = self.follow(py, switch.start, &body.settings, callback)?;
+        let from = PyDict::new(py);
+        from.set_item("event", event)?;
+        from.set_item("direction", direction)?;
+        from.set_item("kind", located.kind.name())?;
+        from.set_item("phase", nnm_io::job::phase_name(phase))?;
+        out.set_item("switched_from", from)?;
         Ok(out)
     }
 
@@ -453,15 +469,94 @@ impl NativeModel {
                 let a = Array2::from_shape_fn((states.len(), 2 * n), |(k, i)| states[k][i]);
                 Ok(a.into_pyarray(py).into_any())
             }
-            Err(e) => {
-                let class = py.import("nnm._errors")?.getattr("NumericalError")?;
-                Err(PyErr::from_value(class.call1((e.to_string(),))?))
-            }
+            Err(e) => Err(numerical_error(py, e.to_string())),
         }
     }
 }
 
 impl NativeModel {
+    /// Follows the branch from `start` without the GIL, handing points to `callback`:
+    /// the result dict of `branch_dict` with the stop, the failure (if any) as data, and the
+    /// native state a switch at one of its events needs.
+    fn follow<'py>(
+        &self,
+        py: Python<'py>,
+        start: Start,
+        settings: &nnm::Settings,
+        callback: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let structure = &self.structure;
+        let threading = py.import("threading")?;
+        let main_thread = threading
+            .call_method0("current_thread")?
+            .is(&threading.call_method0("main_thread")?);
+        let mut observer = PyObserver {
+            callback: callback.as_ref(),
+            main_thread,
+            error: None,
+            stopped: false,
+        };
+        let clock = std::time::Instant::now();
+        let result = py.detach(|| {
+            no_panic(|| {
+                Ok(nnm::continue_branch_observed(
+                    structure,
+                    &start,
+                    settings,
+                    &mut observer,
+                ))
+            })
+        })?;
+        let wall_time = clock.elapsed().as_secs_f64();
+        if let Some(error) = observer.error {
+            return Err(error);
+        }
+        let out = PyDict::new(py);
+        out.set_item("linear_frequency", start.omega)?;
+        out.set_item("wall_time", wall_time)?;
+        let branch = match result {
+            Ok(branch) => {
+                branch_dict(py, &branch, &out)?;
+                let stopped_by_callback =
+                    observer.stopped && branch.stop == StopReason::Interrupted;
+                out.set_item(
+                    "stop_kind",
+                    if stopped_by_callback {
+                        "callback"
+                    } else {
+                        stop_kind(&branch.stop)
+                    },
+                )?;
+                let failure = match &branch.stop {
+                    StopReason::StepTooSmall(_) => Some(branch.stop.to_string()),
+                    _ => None,
+                };
+                out.set_item("error", failure)?;
+                branch
+            }
+            Err(e) => {
+                let empty = Branch {
+                    points: Vec::new(),
+                    events: Vec::new(),
+                    stop: StopReason::StepTooSmall(String::new()),
+                    stats: Default::default(),
+                    omega: start.omega,
+                };
+                branch_dict(py, &empty, &out)?;
+                out.set_item("stop", e.to_string())?;
+                out.set_item("stop_kind", "first-point")?;
+                out.set_item("error", e.to_string())?;
+                empty
+            }
+        };
+        let native = NativeBranch {
+            start,
+            events: branch.events,
+        };
+        out.set_item("native", Py::new(py, native)?)?;
+        Ok(out)
+    }
+
     /// Linear modes with the GIL released, failures as the command line words them.
     fn linear_modes(&self, py: Python<'_>) -> PyResult<Vec<LinearMode>> {
         let structure = &self.structure;
@@ -678,6 +773,7 @@ fn branch_dict<'py>(py: Python<'py>, branch: &Branch, out: &Bound<'py, PyDict>) 
 #[pymodule]
 fn _nnm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeModel>()?;
+    m.add_class::<NativeBranch>()?;
     m.add("SETTINGS_KEYS", nnm::Settings::KEYS.to_vec())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

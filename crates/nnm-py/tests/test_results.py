@@ -103,6 +103,8 @@ def test_branches_and_failures_pickle_for_other_processes(two_dof_branch) -> Non
     np.testing.assert_array_equal(copy.displacement0, two_dof_branch.displacement0)
     with pytest.raises(ValueError, match="without its model"):
         copy.motion(0)
+    with pytest.raises(ValueError, match="without its model"):
+        copy.switch(0, energy_max=100.0)
     with pytest.raises(nnm.ContinuationError) as raised:
         nnm.backbone(nnm.duffing(), 0, energy_max=100.0, max_iterations=1, min_step=0.05, tolerance=1e-10)
     error = pickle.loads(pickle.dumps(raised.value))

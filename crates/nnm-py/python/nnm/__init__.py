@@ -13,13 +13,14 @@ shooting and pseudo-arclength continuation, with Floquet stability and located b
 Models: :class:`Model` (``M``, ``K`` as numpy or scipy.sparse, with :class:`Cubic`,
 :class:`Polynomial`, :class:`Tensor` elements), :meth:`Model.from_job`, and the families
 :func:`bladed_disk`, :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`,
-:func:`von_karman_beam`. Analyses: :func:`modes`, :func:`backbone` (a :class:`Branch`).
+:func:`von_karman_beam`. Analyses: :func:`modes`, :func:`backbone` (a :class:`Branch`),
+:func:`switch` (the family through a branch point or period doubling of a branch).
 Figures: :mod:`nnm.plot`. Errors: ``ValueError``/``TypeError`` for bad input,
 :class:`ContinuationError` (a :class:`NumericalError`) for a branch that failed, with its
 points so far.
 """
 
-from ._branch import Branch, Event, Motion, backbone
+from ._branch import Branch, Event, Motion, backbone, switch
 from ._errors import ContinuationError, NumericalError
 from ._model import (
     Cubic,
@@ -54,6 +55,7 @@ __all__ = [
     "cantilever_beam",
     "duffing",
     "modes",
+    "switch",
     "two_dof",
     "von_karman_beam",
 ]

@@ -79,7 +79,8 @@ class Branch:
     ``"first-point"``), ``linear_frequency`` (of the starting mode), the starting ``mode``
     (index), ``mode_label`` and ``pattern``, work counters in ``stats``, and ``wall_time``,
     the seconds the continuation took in the library (the rest of a call's time is modal
-    analysis and the bindings' own).
+    analysis and the bindings' own). A branch from :meth:`switch` has ``switched_from``
+    (``event``, ``direction``, ``kind`` and the ``phase`` condition it was computed with).
     """
 
     energy: np.ndarray
@@ -106,16 +107,20 @@ class Branch:
     pattern: str | None
     stats: dict[str, int]
     wall_time: float
+    switched_from: dict[str, Any] | None
     model: Model | None
 
-    def __init__(self, model: Model, raw: dict[str, Any]) -> None:
+    def __init__(self, model: Model, raw: dict[str, Any], parent: "Branch | None" = None) -> None:
         self.model = model
         events = raw.pop("events")
-        label = raw.pop("mode_label")
-        self.mode = raw.pop("mode_index")
-        self.mode_label = _parse_label(label)
+        self._native = raw.pop("native")
+        if parent is None:
+            self.mode = raw.pop("mode_index")
+            self.mode_label = _parse_label(raw.pop("mode_label"))
+            self.switched_from = None
+        else:  # a switched branch belongs to its parent's mode family
+            self.mode, self.mode_label, self.pattern = parent.mode, parent.mode_label, parent.pattern
         raw.pop("error", None)
-        raw.pop("dofs", None)
         for key, value in raw.items():
             setattr(self, key, value)
         n = model.dofs
@@ -131,6 +136,7 @@ class Branch:
         # (a process pool, a Dask worker's result) keeps its arrays but not `motion()`.
         state = dict(self.__dict__)
         state["model"] = None
+        state["_native"] = None
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -162,6 +168,10 @@ class Branch:
         t = np.linspace(0.0, self.period[i], z.shape[0])
         return Motion(t, z[:, :n], z[:, n:])
 
+    def switch(self, event: int = 0, **kwargs: Any) -> "Branch":
+        """The family through ``events[event]`` (see :func:`nnm.switch`)."""
+        return switch(self, event, **kwargs)
+
     def to_pandas(self) -> "pandas.DataFrame":
         """The points as a DataFrame with the columns of ``<branch>.csv``."""
         import pandas
@@ -173,6 +183,14 @@ class Branch:
         from . import plot
 
         return plot.fep([self], ax=ax, **kwargs)
+
+
+def _options(
+    energy_max: float | None, frequency_shift_max: float | None, max_points: int | None, settings: dict[str, Any]
+) -> dict[str, Any]:
+    """The job-file keys of a branch: its stop limits (those given) and other settings."""
+    limits = {"energy_max": energy_max, "frequency_shift_max": frequency_shift_max, "max_points": max_points}
+    return {**{k: v for k, v in limits.items() if v is not None}, **settings}
 
 
 def _tqdm_callback(show: bool | None, description: str) -> tuple[Callable[..., Any] | None, Any]:
@@ -242,14 +260,32 @@ def backbone(
     for key in ("name", "start"):
         if key in settings:
             raise TypeError(f"backbone() got an unexpected keyword argument '{key}'")
-    limits = {"energy_max": energy_max, "frequency_shift_max": frequency_shift_max, "max_points": max_points}
-    options = {**{k: v for k, v in limits.items() if v is not None}, **settings}
+    options = _options(energy_max, frequency_shift_max, max_points, settings)
     if pattern is not None:
         options["pattern"] = pattern
     if isinstance(mode, tuple):
         mode = _label(mode)
     described = branch if branch is not None else mode
-    update, bar = _tqdm_callback(progress, f"mode {described}")
+
+    def call(observe: Any) -> dict[str, Any]:
+        return model._native.backbone(mode, options, branch, observe)
+
+    return _follow(model, call, f"mode {described}", progress, callback, raise_on_failure)
+
+
+def _follow(
+    model: Model,
+    call: Callable[[Any], dict[str, Any]],
+    description: str,
+    progress: bool | None,
+    callback: Callable[[int, float, float, bool], Any] | None,
+    raise_on_failure: bool,
+    parent: Branch | None = None,
+) -> Branch:
+    """Runs ``call(observe)`` (a native continuation) with the progress bar and the user's
+    callback on every point, and makes its result a :class:`Branch`, raising
+    :class:`ContinuationError` for a failure unless ``raise_on_failure`` is False."""
+    update, bar = _tqdm_callback(progress, description)
 
     def observe(index: int, energy: float, frequency: float, stable: bool) -> Any:
         if update is not None:
@@ -259,13 +295,54 @@ def backbone(
         return None
 
     try:
-        active = observe if (update is not None or callback is not None) else None
-        raw = model._native.backbone(mode, options, branch, active)
+        raw = call(observe if (update is not None or callback is not None) else None)
     finally:
         if bar is not None:
             bar.close()
     error = raw.get("error")
-    result = Branch(model, raw)
+    result = Branch(model, raw, parent)
     if error is not None and raise_on_failure:
         raise ContinuationError(error, result)
     return result
+
+
+def switch(
+    branch: Branch,
+    event: int = 0,
+    *,
+    direction: int = 0,
+    energy_max: float | None = None,
+    frequency_shift_max: float | None = None,
+    max_points: int | None = None,
+    progress: bool | None = None,
+    callback: Callable[[int, float, float, bool], Any] | None = None,
+    raise_on_failure: bool = True,
+    **settings: Any,
+) -> Branch:
+    """Follows the other family through ``branch.events[event]``: at a ``branch-point`` the
+    family crossing this one, at a ``period-doubling`` the family of twice the period
+    (docs/method.md §9), as a job file's ``start = { branch = ..., event = ... }`` does.
+
+    The new branch starts 5% of the event's amplitude away along the new null direction
+    (``direction`` picks one at a degenerate event, ``multiplicity > 1``), with every elastic
+    mode an unknown and the full period shot; its stop limits and other settings are keywords
+    as for :func:`backbone` (``energy_start``, ``symmetry``, ``half_period`` and ``pattern`` do
+    not apply). Its ``switched_from`` says which event and phase condition it came from.
+
+    Raises ``IndexError`` for an event the branch does not have, ``ValueError`` at a fold or
+    Krein collision (no other family crosses there) or for bad settings,
+    :class:`nnm.NumericalError` when no new null direction is found, and
+    :class:`nnm.ContinuationError` as :func:`backbone` does.
+    """
+    if not isinstance(branch, Branch):
+        raise TypeError(f"branch must be an nnm.Branch, got {type(branch).__name__}")
+    if branch.model is None or branch._native is None:
+        raise ValueError("this branch was unpickled without its model: switching needs the original")
+    options = _options(energy_max, frequency_shift_max, max_points, settings)
+    model = branch.model
+
+    def call(observe: Any) -> dict[str, Any]:
+        return model._native.switch(branch._native, event, direction, options, observe)
+
+    description = f"switch at event {event}"
+    return _follow(model, call, description, progress, callback, raise_on_failure, parent=branch)

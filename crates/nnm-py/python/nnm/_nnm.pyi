@@ -6,6 +6,8 @@ import numpy as np
 SETTINGS_KEYS: list[str]
 __version__: str
 
+class NativeBranch: ...
+
 class NativeModel:
     @staticmethod
     def from_table(table: dict[str, Any]) -> NativeModel: ...
@@ -34,6 +36,14 @@ class NativeModel:
         mode: int | str | None,
         settings: dict[str, Any],
         branch: str | None = None,
+        callback: Callable[[int, float, float, bool], Any] | None = None,
+    ) -> dict[str, Any]: ...
+    def switch(
+        self,
+        parent: NativeBranch,
+        event: int,
+        direction: int,
+        settings: dict[str, Any],
         callback: Callable[[int, float, float, bool], Any] | None = None,
     ) -> dict[str, Any]: ...
     def motion(self, state0: np.ndarray, period: float, samples: int, tolerance: float) -> np.ndarray: ...
