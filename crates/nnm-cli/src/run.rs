@@ -8,10 +8,10 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow, bail};
 use nnm::bifurcation::{Event, switch_branch};
 use nnm::model::Structure;
-use nnm::modes::{LinearMode, StandingWave, find_mode, linear_modes};
-use nnm::shooting::{EvaluationProgress, PhaseCondition};
+use nnm::modes::{LinearMode, linear_modes};
+use nnm::shooting::EvaluationProgress;
 use nnm::{Branch, BranchPoint, Observer, Start, StopReason, continue_branch_observed};
-use nnm_io::job::{BranchJob, EventStart, load_job};
+use nnm_io::job::{BranchJob, EventStart, load_job, resolve_mode};
 use nnm_io::output::{BranchInfo, BranchWriter, SwitchedFrom, write_modes_csv};
 use nnm_plot::{FrequencyEnergyPlot, Marker, Series, SeriesPoint};
 use rayon::prelude::*;
@@ -86,46 +86,9 @@ pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<Branc
             });
             continue;
         }
-        let (index, mode) = find_mode(modes, &b.mode, b.pattern).ok_or_else(|| {
-            let labels = modes.iter().any(|m| m.cyclic.is_some());
-            let hint = if labels {
-                "a label \"n,d\" listed by `nnm modes`, or an index"
-            } else {
-                "an index from 0 to the number of modes - 1 (this model has no (n,d) labels)"
-            };
-            anyhow!(
-                "branch `{}`: unknown mode `{}` (expected {hint})",
-                b.name,
-                b.mode
-            )
-        })?;
-        if mode.rigid {
-            bail!(
-                "branch `{}`: mode `{}` is a rigid-body mode and has no nonlinear normal mode",
-                b.name,
-                b.mode
-            );
-        }
-        let found = mode.cyclic.and_then(|c| c.pattern);
-        if b.pattern.is_some() && found.is_some() && b.pattern != found {
-            bail!(
-                "branch `{}`: mode {} is the {} wave of its pair, but `pattern` asks for the other",
-                b.name,
-                b.mode,
-                if found == Some(StandingWave::Cos) {
-                    "cos"
-                } else {
-                    "sin"
-                }
-            );
-        }
-        if b.pattern.is_some() && mode.cyclic.is_none_or(|c| c.pattern.is_none()) {
-            bail!(
-                "branch `{}`: `pattern` applies only to a degenerate pair, and mode `{}` is single",
-                b.name,
-                b.mode
-            );
-        }
+        let index = resolve_mode(modes, &b.mode, b.pattern)
+            .map_err(|m| anyhow!("branch `{}`: {m}", b.name))?;
+        let mode = &modes[index];
         requests.push(BranchRequest {
             job: b.clone(),
             index,
@@ -373,16 +336,7 @@ pub fn compute_all(
     Ok(outcomes.into_iter().map(|o| o.expect("all done")).collect())
 }
 
-/// The phase condition's name in job files.
-pub fn phase_name(phase: PhaseCondition) -> &'static str {
-    match phase {
-        PhaseCondition::ZeroVelocity => "zero-velocity",
-        PhaseCondition::FlowOrthogonal => "flow-orthogonal",
-    }
-}
-
-/// Offset along the new family's direction at a switch, relative to the event's amplitude.
-pub const SWITCH_AMPLITUDE: f64 = 0.05;
+pub use nnm_io::job::{SWITCH_AMPLITUDE, phase_name};
 
 /// The start of a branch: its linear mode, or the switch at its parent's event (which also
 /// records, in `info`, where the branch came from).

@@ -34,7 +34,8 @@ use nnm::model::{
     BladedDisk, CantileverBeam, CyclicSymmetry, FixedDofs, Matrix, ModelError, NonlinearElement,
     PolynomialSpring, PolynomialTensor, Structure, TensorError, VonKarmanBeam, duffing, two_dof,
 };
-use nnm::modes::StandingWave;
+use nnm::modes::{LinearMode, StandingWave, find_mode};
+use nnm::shooting::PhaseCondition;
 use serde::Deserialize;
 
 use crate::matrix_market::{MarketMatrix, MatrixMarketError, read_matrix_market};
@@ -202,6 +203,132 @@ fn settings_from(table: toml::Table) -> Result<Settings, String> {
         .map_err(|e: toml::de::Error| e.message().to_string())
 }
 
+/// What a `[[branch]]` table says besides its `name` and `start`.
+#[derive(Debug, Clone)]
+pub struct BranchBody {
+    /// Mode label `"n,d"` or index, as written (empty for a branch started from an event).
+    pub mode: String,
+    /// The standing wave of a degenerate pair, when given.
+    pub pattern: Option<StandingWave>,
+    /// `defaults` overridden key by key by the table's own settings, validated.
+    pub settings: Settings,
+}
+
+/// The mode, pattern and settings of one branch from its table (without `name` and `start`),
+/// its settings merged over `defaults` (a `[settings]` section). Front ends that take a
+/// branch from elsewhere than a job file (the Python bindings' keyword arguments) call it so
+/// that their keys, defaults and one-line messages are the job file's.
+pub fn branch_body(
+    mut table: toml::Table,
+    defaults: &toml::Table,
+    from_event: bool,
+) -> Result<BranchBody, String> {
+    let mode = match (table.remove("mode"), from_event) {
+        (Some(_), true) => return Err("give either `mode` or `start`, not both".into()),
+        (None, true) => String::new(),
+        (Some(toml::Value::String(s)), false) => s,
+        (Some(toml::Value::Integer(i)), false) if i >= 0 => i.to_string(),
+        (Some(_), false) => {
+            return Err("`mode` must be a label \"n,d\" or a non-negative index".into());
+        }
+        (None, false) => {
+            return Err("missing `mode` (or `start = { branch = \"NAME\", event = K }`)".into());
+        }
+    };
+    let pattern = match table.remove("pattern") {
+        None => None,
+        Some(toml::Value::String(s)) if s == "cos" => Some(StandingWave::Cos),
+        Some(toml::Value::String(s)) if s == "sin" => Some(StandingWave::Sin),
+        Some(_) => return Err("`pattern` must be \"cos\" or \"sin\"".into()),
+    };
+    if from_event {
+        // A switched branch takes its start, unknowns and period from the switch.
+        let ignored = [
+            ("pattern", pattern.is_some()),
+            ("energy_start", table.contains_key("energy_start")),
+            ("symmetry", table.contains_key("symmetry")),
+            ("half_period", table.contains_key("half_period")),
+        ];
+        if let Some((key, _)) = ignored.iter().find(|(_, given)| *given) {
+            return Err(format!(
+                "`{key}` does not apply to a branch that starts from an event"
+            ));
+        }
+    }
+    let mut merged = defaults.clone();
+    merged.extend(table);
+    let has_limit = ["energy_max", "frequency_shift_max", "max_points"]
+        .iter()
+        .any(|k| merged.contains_key(*k));
+    let settings = settings_from(merged)?;
+    settings.validate().map_err(|e| e.to_string())?;
+    if !has_limit {
+        return Err(
+            "give a stop limit: `energy_max`, `frequency_shift_max` or `max_points`".into(),
+        );
+    }
+    Ok(BranchBody {
+        mode,
+        pattern,
+        settings,
+    })
+}
+
+/// The index of the starting mode of a branch asked for as `mode` (a label `"n,d"` or an
+/// index) and `pattern` among `modes`, refused with a one-line message when there is no such
+/// mode, it is a rigid-body mode, or the pattern does not fit it. Shared by the command line
+/// (which prefixes the branch's name) and the Python bindings.
+pub fn resolve_mode(
+    modes: &[LinearMode],
+    mode: &str,
+    pattern: Option<StandingWave>,
+) -> Result<usize, String> {
+    let (index, found) = find_mode(modes, mode, pattern).ok_or_else(|| {
+        let labels = modes.iter().any(|m| m.cyclic.is_some());
+        let hint = if labels {
+            "a label \"n,d\" listed by `nnm modes`, or an index"
+        } else {
+            "an index from 0 to the number of modes - 1 (this model has no (n,d) labels)"
+        };
+        format!("unknown mode `{mode}` (expected {hint})")
+    })?;
+    if found.rigid {
+        return Err(format!(
+            "mode `{mode}` is a rigid-body mode and has no nonlinear normal mode"
+        ));
+    }
+    let wave = found.cyclic.and_then(|c| c.pattern);
+    if pattern.is_some() && wave.is_some() && pattern != wave {
+        return Err(format!(
+            "mode {mode} is the {} wave of its pair, but `pattern` asks for the other",
+            if wave == Some(StandingWave::Cos) {
+                "cos"
+            } else {
+                "sin"
+            }
+        ));
+    }
+    if pattern.is_some() && wave.is_none() {
+        return Err(format!(
+            "`pattern` applies only to a degenerate pair, and mode `{mode}` is single"
+        ));
+    }
+    Ok(index)
+}
+
+/// The phase condition's name in job files (`phase = "..."`).
+pub fn phase_name(phase: PhaseCondition) -> &'static str {
+    match phase {
+        PhaseCondition::ZeroVelocity => "zero-velocity",
+        PhaseCondition::FlowOrthogonal => "flow-orthogonal",
+    }
+}
+
+/// Offset along the new family's direction at a switch (`start = { branch, event }`),
+/// relative to the event's amplitude: what `nnm run` and the Python bindings both use, so
+/// that a switched branch is the same from either.
+pub const SWITCH_AMPLITUDE: f64 = 0.05;
+
 /// Reads and validates a job file. Matrix files are resolved relative to the job's folder.
 pub fn load_job(path: &Path) -> Result<Job, JobError> {
     let text = std::fs::read_to_string(path).map_err(|e| JobError::Read {
@@ -266,58 +393,12 @@ pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
                 start.branch
             ))));
         }
-        let mode = match (table.remove("mode"), &from_event) {
-            (Some(_), Some(_)) => {
-                return Err(invalid(context("give either `mode` or `start`, not both")));
-            }
-            (None, Some(_)) => String::new(),
-            (Some(toml::Value::String(s)), None) => s,
-            (Some(toml::Value::Integer(i)), None) if i >= 0 => i.to_string(),
-            (Some(_), None) => {
-                return Err(invalid(context(
-                    "`mode` must be a label \"n,d\" or a non-negative index",
-                )));
-            }
-            (None, None) => {
-                return Err(invalid(context(
-                    "missing `mode` (or `start = { branch = \"NAME\", event = K }`)",
-                )));
-            }
-        };
-        let pattern = match table.remove("pattern") {
-            None => None,
-            Some(toml::Value::String(s)) if s == "cos" => Some(StandingWave::Cos),
-            Some(toml::Value::String(s)) if s == "sin" => Some(StandingWave::Sin),
-            Some(_) => return Err(invalid(context("`pattern` must be \"cos\" or \"sin\""))),
-        };
-        if from_event.is_some() {
-            // A switched branch takes its start, unknowns and period from the switch.
-            let ignored = [
-                ("pattern", pattern.is_some()),
-                ("energy_start", table.contains_key("energy_start")),
-                ("symmetry", table.contains_key("symmetry")),
-                ("half_period", table.contains_key("half_period")),
-            ];
-            if let Some((key, _)) = ignored.iter().find(|(_, given)| *given) {
-                return Err(invalid(context(&format!(
-                    "`{key}` does not apply to a branch that starts from an event"
-                ))));
-            }
-        }
-        let mut merged = defaults.clone();
-        merged.extend(table);
-        let has_limit = ["energy_max", "frequency_shift_max", "max_points"]
-            .iter()
-            .any(|k| merged.contains_key(*k));
-        let settings = settings_from(merged).map_err(|m| invalid(context(&m)))?;
-        settings
-            .validate()
-            .map_err(|e| invalid(context(&e.to_string())))?;
-        if !has_limit {
-            return Err(invalid(context(
-                "give a stop limit: `energy_max`, `frequency_shift_max` or `max_points`",
-            )));
-        }
+        let BranchBody {
+            mode,
+            pattern,
+            settings,
+        } = branch_body(table, &defaults, from_event.is_some())
+            .map_err(|m| invalid(context(&m)))?;
         branches.push(BranchJob {
             name,
             mode,
@@ -471,57 +552,98 @@ fn build_model(
             let stiffness = load_matrix(stiffness, "stiffness", Some(n), base, path)?;
             let mut elements = Vec::with_capacity(spec.nonlinear.len());
             for (k, e) in spec.nonlinear.iter().enumerate() {
-                let element = build_element(e, n, base)?
-                    .map_err(|m| invalid(format!("nonlinear element {}: {m}", k + 1)))?;
-                // Checked here, in the numbering the job uses: a reduction would take an
-                // out-of-range dof for a fixed one.
-                if let Some(&dof) = element.dofs_used().iter().find(|&&d| d >= n) {
-                    return Err(model_error(ModelError::ElementDofOutOfRange {
-                        index: k,
-                        dof,
-                        dofs: n,
-                    }));
-                }
-                elements.push(element);
+                elements.push(
+                    build_element(e, n, base)?
+                        .map_err(|m| invalid(format!("nonlinear element {}: {m}", k + 1)))?,
+                );
             }
-            let (mass, stiffness, elements) = match &spec.fixed_dofs {
-                None => (
-                    mass,
-                    stiffness,
-                    elements.into_iter().map(|e| e.boxed()).collect(),
-                ),
-                Some(fixed) => {
-                    let fixed = FixedDofs::new(n, fixed).map_err(model_error)?;
-                    let elements: Vec<Box<dyn NonlinearElement>> =
-                        elements.iter().filter_map(|e| e.reduced(&fixed)).collect();
-                    (
-                        fixed.reduce_matrix("mass", &mass).map_err(model_error)?,
-                        fixed
-                            .reduce_matrix("stiffness", &stiffness)
-                            .map_err(model_error)?,
-                        elements,
-                    )
-                }
-            };
-            let structure = Structure::new(mass, stiffness, elements).map_err(model_error)?;
-            match &spec.cyclic {
-                Some(c) => structure
-                    .with_cyclic_symmetry(CyclicSymmetry {
-                        sectors: c.sectors,
-                        dofs_per_sector: c.dofs_per_sector,
-                    })
-                    .map_err(model_error)?,
-                None => structure,
-            }
+            let cyclic = spec.cyclic.as_ref().map(|c| CyclicSymmetry {
+                sectors: c.sectors,
+                dofs_per_sector: c.dofs_per_sector,
+            });
+            general_model(
+                mass,
+                stiffness,
+                elements,
+                spec.fixed_dofs.as_deref(),
+                cyclic,
+            )
+            .map_err(model_error)?
         }
     };
     Ok((structure, family))
 }
 
-/// A nonlinear element of a general model, in the job's full numbering (before any
-/// `fixed_dofs` are removed).
-enum Element {
+/// A model from a `[model]` table that names no files (a family and its parameters, or
+/// matrices as rows), with the job file's keys, defaults and messages: for front ends that
+/// take a model from elsewhere than a job file (the Python bindings' keyword arguments).
+/// Messages are those of a job file without the file's name.
+pub fn model_from_table(table: toml::Table) -> Result<(Structure, String), String> {
+    let spec: ModelSpec = table
+        .try_into()
+        .map_err(|e: toml::de::Error| e.message().trim().to_string())?;
+    build_model(&spec, Path::new("."), Path::new("")).map_err(|e| match e {
+        JobError::Invalid { message, .. } => message,
+        JobError::Model { error, .. } => error.to_string(),
+        other => other.to_string(),
+    })
+}
+
+/// A general model from its parts in the input's full numbering: the elements' dofs are
+/// checked against the size of `mass`, then `fixed_dofs` (if any) are removed from the
+/// matrices and elements (docs/method.md eq. (61)), and the cyclic symmetry (if any) is
+/// declared on the reduced model. Shared by job files and the Python bindings, so that both
+/// refuse the same models with the same messages.
+pub fn general_model(
+    mass: Matrix,
+    stiffness: Matrix,
+    elements: Vec<Element>,
+    fixed_dofs: Option<&[usize]>,
+    cyclic: Option<CyclicSymmetry>,
+) -> Result<Structure, ModelError> {
+    let n = mass.nrows();
+    for (index, element) in elements.iter().enumerate() {
+        // Checked here, in the numbering of the input: a reduction would take an
+        // out-of-range dof for a fixed one.
+        if let Some(&dof) = element.dofs_used().iter().find(|&&d| d >= n) {
+            return Err(ModelError::ElementDofOutOfRange {
+                index,
+                dof,
+                dofs: n,
+            });
+        }
+    }
+    let (mass, stiffness, elements) = match fixed_dofs {
+        None => (
+            mass,
+            stiffness,
+            elements.into_iter().map(Element::boxed).collect(),
+        ),
+        Some(fixed) => {
+            let fixed = FixedDofs::new(n, fixed)?;
+            let elements: Vec<Box<dyn NonlinearElement>> =
+                elements.iter().filter_map(|e| e.reduced(&fixed)).collect();
+            (
+                fixed.reduce_matrix("mass", &mass)?,
+                fixed.reduce_matrix("stiffness", &stiffness)?,
+                elements,
+            )
+        }
+    };
+    let structure = Structure::new(mass, stiffness, elements)?;
+    match cyclic {
+        Some(cyclic) => structure.with_cyclic_symmetry(cyclic),
+        None => Ok(structure),
+    }
+}
+
+/// A nonlinear element of a general model, in the input's full numbering (before any
+/// `fixed_dofs` are removed): what [`general_model`] takes.
+#[derive(Debug)]
+pub enum Element {
+    /// A `cubic` or `polynomial` spring ([`spring`]).
     Spring(PolynomialSpring),
+    /// Polynomial force terms (`tensor`).
     Tensor(PolynomialTensor),
 }
 
@@ -568,14 +690,27 @@ fn build_element(
             spec.kind
         )));
     }
-    Ok(build_spring(spec).map(Element::Spring))
+    Ok(spring(
+        &spec.kind,
+        spec.dofs.as_deref(),
+        spec.coefficient,
+        spec.exponent.map(i64::from),
+    )
+    .map(Element::Spring))
 }
 
-fn build_spring(spec: &ElementSpec) -> Result<PolynomialSpring, String> {
-    let exponent = match (spec.kind.as_str(), spec.exponent) {
+/// A spring element of type `kind` (`"cubic"` or `"polynomial"`) from its keys as a job file
+/// gives them (each may be missing), checked with the job file's messages.
+pub fn spring(
+    kind: &str,
+    dofs: Option<&[usize]>,
+    coefficient: Option<f64>,
+    exponent: Option<i64>,
+) -> Result<PolynomialSpring, String> {
+    let exponent = match (kind, exponent) {
         ("cubic", None | Some(3)) => 3,
         ("cubic", Some(p)) => return Err(format!("a cubic element has exponent 3, not {p}")),
-        ("polynomial", Some(p)) if (2..=31).contains(&p) => p,
+        ("polynomial", Some(p)) if (2..=31).contains(&p) => p as u32,
         ("polynomial", Some(p)) => return Err(format!("exponent must be 2 to 31, got {p}")),
         ("polynomial", None) => return Err("a polynomial element needs `exponent`".into()),
         (other, _) => {
@@ -584,16 +719,11 @@ fn build_spring(spec: &ElementSpec) -> Result<PolynomialSpring, String> {
             ));
         }
     };
-    let coefficient = spec
-        .coefficient
-        .ok_or_else(|| format!("a {} element needs `coefficient`", spec.kind))?;
+    let coefficient = coefficient.ok_or_else(|| format!("a {kind} element needs `coefficient`"))?;
     if !coefficient.is_finite() {
         return Err(format!("coefficient must be finite, got {coefficient}"));
     }
-    let dofs = spec
-        .dofs
-        .as_deref()
-        .ok_or_else(|| format!("a {} element needs `dofs`", spec.kind))?;
+    let dofs = dofs.ok_or_else(|| format!("a {kind} element needs `dofs`"))?;
     let (i, j) = match dofs {
         [i] => (*i, None),
         [i, j] if i != j => (*i, Some(*j)),

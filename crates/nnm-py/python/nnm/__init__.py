@@ -1,0 +1,61 @@
+"""nnm — nonlinear normal modes of structures ``M x'' + K x + f_nl(x) = 0``.
+
+Branches of periodic motions started from the linear modes and followed in energy by
+shooting and pseudo-arclength continuation, with Floquet stability and located bifurcations
+(the Rust library ``nnm``; docs/method.md numbers the equations).
+
+>>> import nnm
+>>> model = nnm.duffing(natural_frequency=1.0, cubic=1.0)
+>>> branch = nnm.backbone(model, mode=0, frequency_shift_max=0.5)
+>>> round(float(branch.frequency[-1]), 9)
+1.5
+
+Models: :class:`Model` (``M``, ``K`` as numpy or scipy.sparse, with :class:`Cubic`,
+:class:`Polynomial`, :class:`Tensor` elements), :meth:`Model.from_job`, and the families
+:func:`bladed_disk`, :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`,
+:func:`von_karman_beam`. Analyses: :func:`modes`, :func:`backbone` (a :class:`Branch`),
+:func:`switch` (the family through a branch point or period doubling of a branch).
+Figures: :mod:`nnm.plot`. Errors: ``ValueError``/``TypeError`` for bad input,
+:class:`ContinuationError` (a :class:`NumericalError`) for a branch that failed, with its
+points so far.
+"""
+
+from ._branch import Branch, Event, Motion, backbone, switch
+from ._errors import ContinuationError, NumericalError
+from ._model import (
+    Cubic,
+    Model,
+    Modes,
+    Polynomial,
+    Tensor,
+    bladed_disk,
+    cantilever_beam,
+    duffing,
+    modes,
+    two_dof,
+    von_karman_beam,
+)
+from ._nnm import SETTINGS_KEYS, __version__
+
+__all__ = [
+    "Branch",
+    "ContinuationError",
+    "Cubic",
+    "Event",
+    "Model",
+    "Modes",
+    "Motion",
+    "NumericalError",
+    "Polynomial",
+    "SETTINGS_KEYS",
+    "Tensor",
+    "__version__",
+    "backbone",
+    "bladed_disk",
+    "cantilever_beam",
+    "duffing",
+    "modes",
+    "switch",
+    "two_dof",
+    "von_karman_beam",
+]

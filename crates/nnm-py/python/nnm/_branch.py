@@ -1,0 +1,348 @@
+"""Following a branch of nonlinear normal modes, and what it returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, NamedTuple
+
+import numpy as np
+
+from ._errors import ContinuationError
+from ._model import Model, _label, _parse_label
+
+if TYPE_CHECKING:
+    import matplotlib.axes
+    import pandas
+
+
+@dataclass(frozen=True)
+class Event:
+    """A bifurcation located between two points of a branch (the rows of
+    ``<branch>.events.csv``).
+
+    ``kind`` is ``"fold"``, ``"branch-point"``, ``"period-doubling"`` or ``"neimark-sacker"``
+    (``abbreviation`` F, BP, PD, NS); ``multiplier`` the critical Floquet multiplier,
+    ``multiplicity`` how many pairs are critical at once; ``after_point`` the branch point it
+    follows; ``converged`` is False for an event placed only to ``arclength_uncertainty``.
+    ``state0`` is its initial state ``[x0; v0]``.
+    """
+
+    kind: str
+    abbreviation: str
+    energy: float
+    frequency: float
+    period: float
+    multiplier: complex
+    multiplicity: int
+    after_point: int
+    arclength_uncertainty: float
+    converged: bool
+    state0: np.ndarray
+
+
+class Motion(NamedTuple):
+    """One period of a point's motion: times ``t`` (``samples + 1``, the last closing the
+    orbit), displacements ``x`` and velocities ``v`` (``len(t) × n``)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+
+
+# Columns of `<branch>.csv`, in its order, and the Branch attribute each comes from.
+_CSV_COLUMNS = [
+    ("index", "index"),
+    ("energy", "energy"),
+    ("frequency_rad_s", "frequency"),
+    ("period_s", "period"),
+    ("stable", "stable"),
+    ("max_floquet_modulus", "max_floquet_modulus"),
+    ("relative_residual", "relative_residual"),
+    ("iterations", "iterations"),
+    ("step", "step"),
+    ("full_period_residual", "full_period_residual"),
+    ("unstable_pairs", "unstable_pairs"),
+]
+
+
+class Branch:
+    """A computed branch: one entry per converged point, in continuation order.
+
+    Arrays (numpy, one entry per point): ``energy`` (total energy of the motion),
+    ``frequency`` (rad/s), ``period`` (s), ``state0`` (points × 2n: the initial state
+    ``[x0; v0]`` of each periodic motion), ``stable``, ``multipliers`` (points × 2n complex
+    Floquet multipliers, the two trivial ones at +1 last), ``max_floquet_modulus``,
+    ``unstable_pairs``, ``relative_residual``, ``full_period_residual``, ``iterations``,
+    ``step``, ``energy_slope``. Also ``events`` (list of :class:`Event`), ``stop`` (why it
+    ended, in words) and ``stop_kind`` (``"energy-max"``, ``"frequency-shift-max"``,
+    ``"max-points"``, ``"callback"``, ``"interrupted"``, ``"step-too-small"`` or
+    ``"first-point"``), ``linear_frequency`` (of the starting mode), the starting ``mode``
+    (index), ``mode_label`` and ``pattern``, work counters in ``stats``, and ``wall_time``,
+    the seconds the continuation took in the library (the rest of a call's time is modal
+    analysis and the bindings' own). A branch from :meth:`switch` has ``switched_from``
+    (``event``, ``direction``, ``kind`` and the ``phase`` condition it was computed with).
+    """
+
+    energy: np.ndarray
+    frequency: np.ndarray
+    period: np.ndarray
+    state0: np.ndarray
+    stable: np.ndarray
+    multipliers: np.ndarray
+    max_floquet_modulus: np.ndarray
+    unstable_pairs: np.ndarray
+    relative_residual: np.ndarray
+    full_period_residual: np.ndarray
+    reciprocity_defect: np.ndarray
+    iterations: np.ndarray
+    step: np.ndarray
+    energy_slope: np.ndarray
+    index: np.ndarray
+    events: list[Event]
+    stop: str
+    stop_kind: str
+    linear_frequency: float
+    mode: int
+    mode_label: tuple[int, int] | None
+    pattern: str | None
+    stats: dict[str, int]
+    wall_time: float
+    switched_from: dict[str, Any] | None
+    model: Model | None
+
+    def __init__(self, model: Model, raw: dict[str, Any], parent: "Branch | None" = None) -> None:
+        self.model = model
+        events = raw.pop("events")
+        self._native = raw.pop("native")
+        if parent is None:
+            self.mode = raw.pop("mode_index")
+            self.mode_label = _parse_label(raw.pop("mode_label"))
+            self.switched_from = None
+        else:  # a switched branch belongs to its parent's mode family
+            self.mode, self.mode_label, self.pattern = parent.mode, parent.mode_label, parent.pattern
+        raw.pop("error", None)
+        for key, value in raw.items():
+            setattr(self, key, value)
+        n = model.dofs
+        if self.state0.shape[0] == 0:
+            self.state0 = self.state0.reshape(0, 2 * n)
+        self.events = [Event(**e) for e in events]
+
+    def __len__(self) -> int:
+        return len(self.energy)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # The model lives in the library and does not pickle: a branch sent to another process
+        # (a process pool, a Dask worker's result) keeps its arrays but not `motion()`.
+        state = dict(self.__dict__)
+        state["model"] = None
+        state["_native"] = None
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+    def __repr__(self) -> str:
+        mode = self.mode if self.mode_label is None else self.mode_label
+        return f"<nnm.Branch of mode {mode}: {len(self)} points, {len(self.events)} events, {self.stop}>"
+
+    @property
+    def frequency_shift(self) -> np.ndarray:
+        """``frequency / linear_frequency - 1`` per point."""
+        return self.frequency / self.linear_frequency - 1.0
+
+    @property
+    def displacement0(self) -> np.ndarray:
+        """The initial displacements ``x0`` (points × n): the NNM's deflected shape at rest."""
+        return self.state0[:, : self.state0.shape[1] // 2]
+
+    def motion(self, i: int, samples: int = 100, tolerance: float = 1e-10) -> Motion:
+        """The motion of point ``i`` over one period, at ``samples + 1`` equal times, each
+        segment integrated adaptively to relative ``tolerance`` (so sampling costs no
+        accuracy)."""
+        i = range(len(self))[i]  # IndexError for a point the branch does not have
+        if self.model is None:
+            raise ValueError("this branch was unpickled without its model: motion() needs the model")
+        z = self.model._native.motion(self.state0[i], float(self.period[i]), int(samples), float(tolerance))
+        n = self.model.dofs
+        t = np.linspace(0.0, self.period[i], z.shape[0])
+        return Motion(t, z[:, :n], z[:, n:])
+
+    def switch(self, event: int = 0, **kwargs: Any) -> "Branch":
+        """The family through ``events[event]`` (see :func:`nnm.switch`)."""
+        return switch(self, event, **kwargs)
+
+    def to_pandas(self) -> "pandas.DataFrame":
+        """The points as a DataFrame with the columns of ``<branch>.csv``."""
+        import pandas
+
+        return pandas.DataFrame({column: getattr(self, attribute) for column, attribute in _CSV_COLUMNS})
+
+    def plot(self, ax: "matplotlib.axes.Axes | None" = None, **kwargs: Any) -> "matplotlib.axes.Axes":
+        """The frequency–energy plot of this branch (see :func:`nnm.plot.fep`)."""
+        from . import plot
+
+        return plot.fep([self], ax=ax, **kwargs)
+
+
+def _options(
+    energy_max: float | None, frequency_shift_max: float | None, max_points: int | None, settings: dict[str, Any]
+) -> dict[str, Any]:
+    """The job-file keys of a branch: its stop limits (those given) and other settings."""
+    limits = {"energy_max": energy_max, "frequency_shift_max": frequency_shift_max, "max_points": max_points}
+    return {**{k: v for k, v in limits.items() if v is not None}, **settings}
+
+
+def _tqdm_callback(show: bool | None, description: str) -> tuple[Callable[..., Any] | None, Any]:
+    """A progress callback on a tqdm bar, and the bar (to close), when tqdm is installed and
+    ``show`` is not False. With ``show=None`` the bar appears only once the run has taken a
+    second, so that short runs print nothing."""
+    if show is False:
+        return None, None
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        if show:
+            raise
+        return None, None
+    bar = tqdm(desc=description, unit=" points", delay=0.0 if show else 1.0, leave=bool(show))
+
+    def update(index: int, energy: float, frequency: float, stable: bool) -> None:
+        bar.set_postfix_str(f"E = {energy:.4g}, f = {frequency:.6g} rad/s", refresh=False)
+        bar.update(1)
+
+    return update, bar
+
+
+def backbone(
+    model: Model,
+    mode: int | str | tuple[int, int] | None = None,
+    *,
+    pattern: str | None = None,
+    energy_max: float | None = None,
+    frequency_shift_max: float | None = None,
+    max_points: int | None = None,
+    branch: str | None = None,
+    progress: bool | None = None,
+    callback: Callable[[int, float, float, bool], Any] | None = None,
+    raise_on_failure: bool = True,
+    **settings: Any,
+) -> Branch:
+    """Follows the NNM branch that starts from a linear mode of ``model``.
+
+    ``mode`` is an index into :func:`nnm.modes` (ascending frequency), or on cyclic models a
+    label ``(n, d)`` or ``"n,d"`` (``pattern="sin"`` for the other standing wave of a pair).
+    The branch stops at ``energy_max``, at ``frequency_shift_max`` (``|ω/ω0 - 1|``; the last
+    point lies on either limit to 1e-10) or after ``max_points``; at least one is required.
+    Other keywords are the job file's settings with the same names, meanings and defaults
+    (``tolerance``, ``initial_step``, ``min_step``, ``max_step``, ``max_iterations``,
+    ``target_iterations``, ``max_turn_angle``, ``energy_start``, ``symmetry``, ``phase``,
+    ``jacobian``, ``half_period``, ``integrator``, ``integration_factor``,
+    ``stability_tolerance``, ``events``; README "Job files"). ``branch=NAME`` instead runs a
+    ``[[branch]]`` of the job file the model came from, with its settings.
+
+    The computation runs without the GIL. Ctrl-C stops it between points (raising
+    ``KeyboardInterrupt``); ``callback(index, energy, frequency, stable)`` is called after
+    each point and stops the branch by returning ``False``; with tqdm installed a progress
+    bar shows once a run takes more than a second (``progress=True``: at once, ``False``:
+    never).
+
+    Raises ``ValueError``/``TypeError`` for bad input (an unknown mode or setting, a value out
+    of range), with the message ``nnm run`` gives. A branch that cannot be followed to its
+    limit (the first point does not converge, or a step fails at the minimum step size)
+    raises :class:`nnm.ContinuationError` with the points computed so far on its ``branch``;
+    with ``raise_on_failure=False`` that branch is returned instead (see ``Branch.stop``).
+    """
+    if not isinstance(model, Model):
+        raise TypeError(f"model must be an nnm.Model, got {type(model).__name__}")
+    if mode is None and branch is None:
+        raise TypeError('backbone() needs `mode` (an index, (n, d) or "n,d") or `branch` (a job file\'s)')
+    for key in ("name", "start"):
+        if key in settings:
+            raise TypeError(f"backbone() got an unexpected keyword argument '{key}'")
+    options = _options(energy_max, frequency_shift_max, max_points, settings)
+    if pattern is not None:
+        options["pattern"] = pattern
+    if isinstance(mode, tuple):
+        mode = _label(mode)
+    described = branch if branch is not None else mode
+
+    def call(observe: Any) -> dict[str, Any]:
+        return model._native.backbone(mode, options, branch, observe)
+
+    return _follow(model, call, f"mode {described}", progress, callback, raise_on_failure)
+
+
+def _follow(
+    model: Model,
+    call: Callable[[Any], dict[str, Any]],
+    description: str,
+    progress: bool | None,
+    callback: Callable[[int, float, float, bool], Any] | None,
+    raise_on_failure: bool,
+    parent: Branch | None = None,
+) -> Branch:
+    """Runs ``call(observe)`` (a native continuation) with the progress bar and the user's
+    callback on every point, and makes its result a :class:`Branch`, raising
+    :class:`ContinuationError` for a failure unless ``raise_on_failure`` is False."""
+    update, bar = _tqdm_callback(progress, description)
+
+    def observe(index: int, energy: float, frequency: float, stable: bool) -> Any:
+        if update is not None:
+            update(index, energy, frequency, stable)
+        if callback is not None:
+            return callback(index, energy, frequency, stable)
+        return None
+
+    try:
+        raw = call(observe if (update is not None or callback is not None) else None)
+    finally:
+        if bar is not None:
+            bar.close()
+    error = raw.get("error")
+    result = Branch(model, raw, parent)
+    if error is not None and raise_on_failure:
+        raise ContinuationError(error, result)
+    return result
+
+
+def switch(
+    branch: Branch,
+    event: int = 0,
+    *,
+    direction: int = 0,
+    energy_max: float | None = None,
+    frequency_shift_max: float | None = None,
+    max_points: int | None = None,
+    progress: bool | None = None,
+    callback: Callable[[int, float, float, bool], Any] | None = None,
+    raise_on_failure: bool = True,
+    **settings: Any,
+) -> Branch:
+    """Follows the other family through ``branch.events[event]``: at a ``branch-point`` the
+    family crossing this one, at a ``period-doubling`` the family of twice the period
+    (docs/method.md §9), as a job file's ``start = { branch = ..., event = ... }`` does.
+
+    The new branch starts 5% of the event's amplitude away along the new null direction
+    (``direction`` picks one at a degenerate event, ``multiplicity > 1``), with every elastic
+    mode an unknown and the full period shot; its stop limits and other settings are keywords
+    as for :func:`backbone` (``energy_start``, ``symmetry``, ``half_period`` and ``pattern`` do
+    not apply). Its ``switched_from`` says which event and phase condition it came from.
+
+    Raises ``IndexError`` for an event the branch does not have, ``ValueError`` at a fold or
+    Krein collision (no other family crosses there) or for bad settings,
+    :class:`nnm.NumericalError` when no new null direction is found, and
+    :class:`nnm.ContinuationError` as :func:`backbone` does.
+    """
+    if not isinstance(branch, Branch):
+        raise TypeError(f"branch must be an nnm.Branch, got {type(branch).__name__}")
+    if branch.model is None or branch._native is None:
+        raise ValueError("this branch was unpickled without its model: switching needs the original")
+    options = _options(energy_max, frequency_shift_max, max_points, settings)
+    model = branch.model
+
+    def call(observe: Any) -> dict[str, Any]:
+        return model._native.switch(branch._native, event, direction, options, observe)
+
+    description = f"switch at event {event}"
+    return _follow(model, call, description, progress, callback, raise_on_failure, parent=branch)

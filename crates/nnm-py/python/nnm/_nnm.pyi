@@ -1,0 +1,49 @@
+# Stubs of the native module (crates/nnm-py/src/lib.rs). Private: use the `nnm` package.
+from typing import Any, Callable
+
+import numpy as np
+
+SETTINGS_KEYS: list[str]
+__version__: str
+
+class NativeBranch: ...
+
+class NativeModel:
+    @staticmethod
+    def from_table(table: dict[str, Any]) -> NativeModel: ...
+    @staticmethod
+    def from_job(path: str) -> NativeModel: ...
+    @staticmethod
+    def general(
+        mass: np.ndarray | tuple[int, int, np.ndarray, np.ndarray, np.ndarray],
+        stiffness: np.ndarray | tuple[int, int, np.ndarray, np.ndarray, np.ndarray],
+        elements: list[tuple[Any, ...]],
+        fixed_dofs: list[int] | None = None,
+        cyclic: tuple[int, int] | None = None,
+    ) -> NativeModel: ...
+    @property
+    def dofs(self) -> int: ...
+    @property
+    def family(self) -> str: ...
+    @property
+    def cyclic(self) -> tuple[int, int] | None: ...
+    @property
+    def branch_names(self) -> list[str]: ...
+    def matrix(self, name: str) -> np.ndarray | tuple[int, np.ndarray, np.ndarray, np.ndarray]: ...
+    def modes(self) -> dict[str, Any]: ...
+    def backbone(
+        self,
+        mode: int | str | None,
+        settings: dict[str, Any],
+        branch: str | None = None,
+        callback: Callable[[int, float, float, bool], Any] | None = None,
+    ) -> dict[str, Any]: ...
+    def switch(
+        self,
+        parent: NativeBranch,
+        event: int,
+        direction: int,
+        settings: dict[str, Any],
+        callback: Callable[[int, float, float, bool], Any] | None = None,
+    ) -> dict[str, Any]: ...
+    def motion(self, state0: np.ndarray, period: float, samples: int, tolerance: float) -> np.ndarray: ...

@@ -1,0 +1,104 @@
+"""Figures of NNM results with matplotlib (imported only when a figure is asked for).
+
+- :func:`fep`: the frequency–energy plot of branches (log energy; stable parts solid,
+  unstable dashed; events marked F, BP, PD, NS), as ``nnm run`` draws ``fep.png``;
+- :func:`mode_shape`: a linear mode's or an NNM's deflected shape, dof by dof;
+- :func:`time_series`: a point's motion over one period.
+
+Each takes an optional ``ax`` and returns the axes it drew on.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Iterable, Sequence
+
+import numpy as np
+
+if TYPE_CHECKING:
+    import matplotlib.axes
+
+    from ._branch import Branch, Motion
+
+
+def _axes(ax: "matplotlib.axes.Axes | None") -> "matplotlib.axes.Axes":
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    return plt.figure().add_subplot()
+
+
+def _runs(stable: np.ndarray) -> list[tuple[int, int, bool]]:
+    """``(start, stop, stable)`` of the maximal runs of equal stability; consecutive runs share
+    their boundary point so that the curve stays connected."""
+    runs = []
+    start = 0
+    for k in range(1, len(stable) + 1):
+        if k == len(stable) or stable[k] != stable[start]:
+            runs.append((start, min(k + 1, len(stable)), bool(stable[start])))
+            start = k
+    return runs
+
+
+def fep(
+    branches: Iterable["Branch"],
+    ax: "matplotlib.axes.Axes | None" = None,
+    labels: Sequence[str] | None = None,
+    events: bool = True,
+) -> "matplotlib.axes.Axes":
+    """Frequency (rad/s) against energy (log axis) of every branch: stable parts solid,
+    unstable dashed, one colour per branch, located events marked with their abbreviation."""
+    ax = _axes(ax)
+    for k, branch in enumerate(branches):
+        label = labels[k] if labels is not None else f"mode {branch.mode_label or branch.mode}"
+        colour = f"C{k % 10}"
+        for start, stop, stable in _runs(branch.stable):
+            ax.plot(
+                branch.energy[start:stop],
+                branch.frequency[start:stop],
+                color=colour,
+                linestyle="-" if stable else "--",
+                label=label if start == 0 else None,
+            )
+        if events:
+            for e in branch.events:
+                ax.plot(e.energy, e.frequency, "o", color=colour, markersize=4)
+                ax.annotate(e.abbreviation, (e.energy, e.frequency), textcoords="offset points", xytext=(4, 4))
+    ax.set_xscale("log")
+    ax.set_xlabel("energy")
+    ax.set_ylabel("frequency (rad/s)")
+    ax.set_title("Frequency–energy plot (dashed: unstable)")
+    ax.legend()
+    return ax
+
+
+def mode_shape(
+    shape: np.ndarray, ax: "matplotlib.axes.Axes | None" = None, label: str | None = None
+) -> "matplotlib.axes.Axes":
+    """A shape (``modes.shapes[:, k]`` or ``branch.displacement0[i]``) dof by dof."""
+    ax = _axes(ax)
+    shape = np.asarray(shape)
+    ax.plot(np.arange(len(shape)), shape, "o-", label=label)
+    ax.set_xlabel("dof")
+    ax.set_ylabel("displacement")
+    if label is not None:
+        ax.legend()
+    return ax
+
+
+def time_series(
+    motion: "Motion", dofs: Sequence[int] | None = None, ax: "matplotlib.axes.Axes | None" = None
+) -> "matplotlib.axes.Axes":
+    """Displacements of ``dofs`` (default: all, up to 10) over one period of a
+    :meth:`Branch.motion`."""
+    ax = _axes(ax)
+    chosen = list(dofs) if dofs is not None else list(range(min(motion.x.shape[1], 10)))
+    for d in chosen:
+        ax.plot(motion.t, motion.x[:, d], label=f"x{d}")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("displacement")
+    ax.legend()
+    return ax
+
+
+__all__ = ["fep", "mode_shape", "time_series"]

@@ -1,0 +1,178 @@
+"""Bad input raises ValueError/TypeError with the command line's one-line message (compared
+with what `nnm` itself prints for the same model in a job file); numerical failures raise
+nnm.ContinuationError with the points computed so far."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import nnm
+from conftest import cli_error
+
+TWO = np.eye(2)
+CHAIN = np.array([[2.0, -1.0], [-1.0, 2.0]])
+
+
+def toml_rows(a) -> str:
+    return "[" + ", ".join("[" + ", ".join(str(v) for v in row) + "]" for row in np.asarray(a)) + "]"
+
+
+@pytest.mark.parametrize(
+    "mass, stiffness",
+    [
+        (TWO, np.eye(3)),  # wrong size
+        (TWO, [[2.0, -1.0], [-1.0, np.nan]]),  # NaN
+        (TWO, [[2.0, -1.0], [-0.5, 2.0]]),  # not symmetric
+        ([[1.0, 0.0], [0.0, -1.0]], CHAIN),  # mass not positive definite
+        ([[1.0, 2.0], [2.0, 1.0]], CHAIN),  # mass indefinite (not diagonal)
+    ],
+)
+def test_bad_matrices_have_the_command_lines_message(mass, stiffness, write_job, cli) -> None:
+    with pytest.raises(ValueError) as raised:
+        nnm.Model(np.array(mass), np.array(stiffness))
+    job = write_job(f"[model]\nmass = {toml_rows(mass)}\nstiffness = {toml_rows(stiffness)}\n")
+    assert cli_error(cli, "modes", job) == f"{job}: {raised.value}"
+
+
+@pytest.mark.parametrize(
+    "element, toml",
+    [
+        (nnm.Polynomial([0], 1.0, 40), 'type = "polynomial"\ndofs = [0]\ncoefficient = 1.0\nexponent = 40'),
+        (nnm.Cubic([1, 1], 1.0), 'type = "cubic"\ndofs = [1, 1]\ncoefficient = 1.0'),
+        (nnm.Cubic([0, 5], 1.0), 'type = "cubic"\ndofs = [0, 5]\ncoefficient = 1.0'),
+        (nnm.Cubic([0], np.inf), 'type = "cubic"\ndofs = [0]\ncoefficient = inf'),
+    ],
+)
+def test_bad_elements_have_the_command_lines_message(element, toml, write_job, cli) -> None:
+    with pytest.raises(ValueError) as raised:
+        nnm.Model(TWO, CHAIN, [element])
+    job = write_job(
+        f"[model]\nmass = {toml_rows(TWO)}\nstiffness = {toml_rows(CHAIN)}\n[[model.nonlinear]]\n{toml}\n"
+    )
+    assert cli_error(cli, "modes", job) == f"{job}: {raised.value}"
+
+
+def test_bad_family_parameters_have_the_command_lines_message(write_job, cli) -> None:
+    with pytest.raises(ValueError) as raised:
+        nnm.bladed_disk(sectors=0)
+    job = write_job('[model]\nfamily = "bladed-disk"\nsectors = 0\n')
+    assert cli_error(cli, "modes", job) == f"{job}: {raised.value}"
+    with pytest.raises(TypeError, match="invalid type"):
+        nnm.bladed_disk(sectors=2.5)
+
+
+@pytest.mark.parametrize(
+    "model, mode, settings, toml",
+    [
+        ("duffing", 7, {"energy_max": 1.0}, "mode = 7\nenergy_max = 1.0"),
+        ("bladed-disk", "9,9", {"energy_max": 1.0}, 'mode = "9,9"\nenergy_max = 1.0'),
+        ("bladed-disk", "0,0", {"energy_max": 1.0}, 'mode = "0,0"\nenergy_max = 1.0'),  # rigid
+        ("bladed-disk", "1,0", {"energy_max": 1.0, "pattern": "sin"}, 'mode = "1,0"\npattern = "sin"\nenergy_max = 1.0'),
+    ],
+)
+def test_unknown_modes_have_the_command_lines_message(model, mode, settings, toml, write_job, cli) -> None:
+    with pytest.raises(ValueError) as raised:
+        nnm.backbone(nnm.Model._family(model, {}), mode, **settings)
+    job = write_job(f'[model]\nfamily = "{model}"\n[[branch]]\nname = "b"\n{toml}\n')
+    assert cli_error(cli, "run", job, "--out", job.parent / "out") == f"branch `b`: {raised.value}"
+
+
+@pytest.mark.parametrize(
+    "settings, toml, exception",
+    [
+        ({"energy_max": 1.0, "tolrance": 1e-9}, "energy_max = 1.0\ntolrance = 1e-9", ValueError),  # misspelt
+        ({"energy_max": 1.0, "tolerance": 0.5}, "energy_max = 1.0\ntolerance = 0.5", ValueError),  # out of range
+        ({"energy_max": 1.0, "tolerance": "tight"}, 'energy_max = 1.0\ntolerance = "tight"', TypeError),
+        ({"energy_max": 1.0, "events": 1}, "energy_max = 1.0\nevents = 1", TypeError),  # an int is not a bool
+        ({"energy_max": float("nan")}, "energy_max = nan", ValueError),
+        ({"tolerance": 1e-9}, "tolerance = 1e-9", ValueError),  # no stop limit
+        ({"energy_max": 1.0, "phase": "sideways"}, 'energy_max = 1.0\nphase = "sideways"', ValueError),
+    ],
+)
+def test_bad_settings_have_the_command_lines_message(settings, toml, exception, write_job, cli) -> None:
+    with pytest.raises(exception) as raised:
+        nnm.backbone(nnm.duffing(), 0, **settings)
+    assert "\n" not in str(raised.value)
+    job = write_job(f'[model]\nfamily = "duffing"\n[[branch]]\nname = "b"\nmode = 0\n{toml}\n')
+    assert cli_error(cli, "run", job, "--out", job.parent / "out") == f"{job}: branch 1: {raised.value}"
+
+
+def test_shapes_and_types_are_checked_before_the_library() -> None:
+    with pytest.raises(ValueError, match="mass matrix must be 2-D"):
+        nnm.Model(np.ones(3), CHAIN)
+    with pytest.raises(TypeError, match="stiffness matrix must be real numbers"):
+        nnm.Model(TWO, [["a", "b"], ["c", "d"]])
+    with pytest.raises(TypeError):
+        nnm.Model(TWO, CHAIN, [nnm.Cubic([0.5], 1.0)])
+    with pytest.raises(ValueError, match="0-based"):
+        nnm.Model(TWO, CHAIN, [nnm.Cubic([-1], 1.0)])
+    with pytest.raises(ValueError, match="^nonlinear element 1: exponent must be 2 to 31, got -3$"):
+        nnm.Model(TWO, CHAIN, [nnm.Polynomial([0], 1.0, -3)])
+    with pytest.raises(ValueError, match="^mass matrix is 2x3, not square$"):
+        nnm.Model(sp.csr_array(np.ones((2, 3))), CHAIN)
+    with pytest.raises(ValueError, match="^stiffness matrix is 3x3, expected 2x2$"):
+        nnm.Model(TWO, sp.csr_array(np.eye(3)))
+    with pytest.raises(TypeError, match="nonlinear element 1 must be"):
+        nnm.Model(TWO, CHAIN, ["cubic"])
+    with pytest.raises(ValueError, match=r"shape \(m, 4\)"):
+        nnm.Model(TWO, CHAIN, [nnm.Tensor(cubic=(np.zeros((2, 3), dtype=int), [1.0, 1.0]))])
+    with pytest.raises(TypeError, match="`tolerance`"):
+        nnm.backbone(nnm.duffing(), 0, energy_max=1.0, tolerance=object())
+    with pytest.raises(TypeError):
+        nnm.backbone(nnm.duffing(), 0, energy_max=1.0, name="x")
+    with pytest.raises(TypeError, match="needs `mode`"):
+        nnm.backbone(nnm.duffing(), energy_max=1.0)
+    with pytest.raises(TypeError, match="either `branch`"):
+        nnm.backbone(nnm.duffing(), 0, branch="b")
+    with pytest.raises(ValueError, match="no branch `b`"):
+        nnm.backbone(nnm.duffing(), branch="b")
+    with pytest.raises(FileNotFoundError):
+        nnm.Model.from_job("no/such/job.toml")
+    branch = nnm.backbone(nnm.duffing(), 0, max_points=3)
+    with pytest.raises(IndexError):
+        branch.motion(3)
+
+
+def test_a_tensor_that_is_not_a_gradient_is_refused_naming_its_terms() -> None:
+    """f0 = x1^3 with no matching f1 term has no potential (eq. (59)); indices 0-based."""
+    with pytest.raises(ValueError, match=r"^nonlinear element 1: .*cubic") as raised:
+        nnm.Model(TWO, CHAIN, [nnm.Tensor(cubic=([[0, 1, 1, 1]], [1.0]))])
+    assert "\n" not in str(raised.value)
+
+
+def test_a_branch_that_fails_raises_with_its_points_so_far() -> None:
+    """One Newton iteration per step and a large minimum step: the corrector soon fails at
+    the smallest step allowed."""
+    settings = {"energy_max": 100.0, "max_iterations": 1, "min_step": 0.05, "tolerance": 1e-10}
+    with pytest.raises(nnm.ContinuationError) as raised:
+        nnm.backbone(nnm.duffing(), 0, **settings)
+    error = raised.value
+    assert isinstance(error, nnm.NumericalError) and not isinstance(error, ValueError)
+    assert str(error).startswith("no convergence at the minimum step")
+    partial = error.branch
+    assert partial.stop_kind == "step-too-small" and partial.stop == str(error)
+    assert 0 < len(partial) and partial.energy[-1] < 100.0
+    assert (partial.relative_residual < 1e-10).all()  # every point kept did converge
+    kept = nnm.backbone(nnm.duffing(), 0, raise_on_failure=False, **settings)
+    assert np.array_equal(kept.state0, partial.state0)
+
+
+def test_a_first_point_that_fails_raises_with_no_points() -> None:
+    with pytest.raises(nnm.ContinuationError, match="^the first point did not converge") as raised:
+        nnm.backbone(nnm.duffing(), 0, energy_max=1e9, energy_start=1e6, max_iterations=1)
+    assert len(raised.value.branch) == 0
+    assert raised.value.branch.state0.shape == (0, 2)
+
+
+def test_a_job_branch_switched_from_an_event_is_refused_by_name(write_job) -> None:
+    job = write_job(
+        '[model]\nfamily = "two-dof"\n[settings]\nenergy_max = 100.0\n'
+        '[[branch]]\nname = "in-phase"\nmode = 0\n'
+        '[[branch]]\nname = "switched"\nstart = { branch = "in-phase", event = 0 }\n'
+    )
+    model = nnm.Model.from_job(job)
+    assert model.branches == ["in-phase", "switched"]
+    with pytest.raises(ValueError, match="^branch `switched` starts from event 0 of branch `in-phase`"):
+        nnm.backbone(model, branch="switched")
