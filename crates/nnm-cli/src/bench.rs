@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use nnm::integrate::IntegrationMethod;
 use nnm::model::{BladedDisk, CantileverBeam, Structure, VonKarmanBeam, duffing, two_dof};
 use nnm::modes::{find_mode, linear_modes};
-use nnm::shooting::JacobianMethod;
+use nnm::shooting::{Formulation, JacobianMethod};
 use nnm::{Branch, Settings, Start, continue_branch};
 
 struct Row {
@@ -24,6 +24,8 @@ struct Row {
     steps: usize,
     rhs: usize,
     tangents: usize,
+    /// Monodromy–vector products (matrix-free formulation).
+    products: usize,
 }
 
 const METHODS: [(JacobianMethod, &str); 2] = [
@@ -85,6 +87,7 @@ fn variant_rows(
                 steps: s.shooting.integration.steps,
                 rhs: s.shooting.integration.rhs_evaluations,
                 tangents: s.shooting.integration.tangent_evaluations,
+                products: s.shooting.krylov_products,
             })
         })
         .collect()
@@ -124,6 +127,7 @@ fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<
                 steps: s.integration.steps / repeat,
                 rhs: s.integration.rhs_evaluations / repeat,
                 tangents: s.integration.tangent_evaluations / repeat,
+                products: 0,
             })
         })
         .collect()
@@ -193,7 +197,15 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
             s.stability.events = false;
             s
         };
-        for elements in [19, 50, 100] {
+        // Dense and matrix-free formulations (docs/method.md §15) side by side on the same
+        // damping integrator where both run; matrix-free alone above.
+        let formulation = |f: Formulation| {
+            let mut s = beam_settings(0.2);
+            s.integration.integrator = IntegrationMethod::Radau5;
+            s.shooting.formulation = f;
+            s
+        };
+        for elements in [19, 50, 100, 200] {
             let beam = CantileverBeam {
                 elements,
                 ..CantileverBeam::default()
@@ -201,13 +213,16 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
             .build()?;
             eprintln!("bench: beam of {elements} elements");
             let case = format!("beam {elements} el. ({} dofs) to +20%", 2 * elements);
-            rows.extend(variant_rows(
-                &case,
-                &beam,
-                &start(&beam, "0")?,
-                &[("auto", beam_settings(0.2))],
-            )?);
-            sizes.push(1);
+            let variants = match elements {
+                19 => vec![("auto", beam_settings(0.2))],
+                200 => vec![("matrix-free", formulation(Formulation::MatrixFree))],
+                _ => vec![
+                    ("dense", formulation(Formulation::Dense)),
+                    ("matrix-free", formulation(Formulation::MatrixFree)),
+                ],
+            };
+            sizes.push(variants.len());
+            rows.extend(variant_rows(&case, &beam, &start(&beam, "0")?, &variants)?);
         }
         let beam = CantileverBeam::default().build()?;
         let two_points = |method: IntegrationMethod| {
@@ -237,7 +252,7 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
         sizes.push(1);
     }
     println!(
-        "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>7}",
+        "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>9} {:>7}",
         "case",
         "jacobian",
         "time_s",
@@ -247,6 +262,7 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
         "steps",
         "rhs_evals",
         "tangents",
+        "products",
         "ratio"
     );
     let mut rest = rows.as_slice();
@@ -256,7 +272,7 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
         let base = group[0].seconds;
         for r in group {
             println!(
-                "{:<38} {:<12} {:>10.4} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>7.2}",
+                "{:<38} {:<12} {:>10.4} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>9} {:>7.2}",
                 r.case,
                 r.method,
                 r.seconds,
@@ -266,6 +282,7 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
                 r.steps,
                 r.rhs,
                 r.tangents,
+                r.products,
                 r.seconds / base
             );
         }
