@@ -155,20 +155,13 @@ fn diagonal_of_tangent<S: MechanicalSystem + ?Sized>(system: &S) -> Vec<f64> {
             .map(|i| pattern.position(i, i).map_or(0.0, |p| values[p]))
             .collect();
     }
-    let mut unit = vec![0.0; n];
-    let mut column = vec![0.0; n];
-    (0..n)
-        .map(|i| {
-            unit[i] = 1.0;
-            system.tangent_stiffness(
-                &rest,
-                Block::new(&unit, n, 1, n),
-                BlockMut::new(&mut column, n, 1, n),
-            );
-            unit[i] = 0.0;
-            column[i]
-        })
-        .collect()
+    diagonal_by_products(n, |unit, column| {
+        system.tangent_stiffness(
+            &rest,
+            Block::new(unit, n, 1, n),
+            BlockMut::new(column, n, 1, n),
+        );
+    })
 }
 
 /// `M`'s diagonal, from the mass operator's sparse entries or diagonal when it has them.
@@ -184,12 +177,18 @@ fn diagonal_of_mass<S: MechanicalSystem + ?Sized>(system: &S) -> Vec<f64> {
             .map(|i| pattern.position(i, i).map_or(0.0, |p| sparse.values()[p]))
             .collect();
     }
+    diagonal_by_products(n, |unit, column| mass.apply(unit, 1, column))
+}
+
+/// The diagonal of an `n × n` operator given only by its products, one unit vector at a time
+/// (models without stored entries; small ones, where matrix-free shooting is asked for).
+fn diagonal_by_products(n: usize, mut product: impl FnMut(&[f64], &mut [f64])) -> Vec<f64> {
     let mut unit = vec![0.0; n];
     let mut column = vec![0.0; n];
     (0..n)
         .map(|i| {
             unit[i] = 1.0;
-            mass.apply(&unit, 1, &mut column);
+            product(&unit, &mut column);
             unit[i] = 0.0;
             column[i]
         })
