@@ -198,14 +198,15 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
             s
         };
         // Dense and matrix-free formulations (docs/method.md §15) side by side on the same
-        // damping integrator where both run; matrix-free alone above.
+        // damping integrator. (At 200 elements matrix-free crawls near its residual's noise
+        // floor: not a benchmark yet.)
         let formulation = |f: Formulation| {
             let mut s = beam_settings(0.2);
             s.integration.integrator = IntegrationMethod::Radau5;
             s.shooting.formulation = f;
             s
         };
-        for elements in [19, 50, 100, 200] {
+        for elements in [19, 50, 100] {
             let beam = CantileverBeam {
                 elements,
                 ..CantileverBeam::default()
@@ -215,7 +216,6 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
             let case = format!("beam {elements} el. ({} dofs) to +20%", 2 * elements);
             let variants = match elements {
                 19 => vec![("auto", beam_settings(0.2))],
-                200 => vec![("matrix-free", formulation(Formulation::MatrixFree))],
                 _ => vec![
                     ("dense", formulation(Formulation::Dense)),
                     ("matrix-free", formulation(Formulation::MatrixFree)),

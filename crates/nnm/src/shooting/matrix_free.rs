@@ -32,11 +32,6 @@ use crate::krylov::{Arnoldi, gmres};
 use crate::linalg::{self, Mat};
 use crate::model::{Block, BlockMut, MechanicalSystem};
 
-/// Above this many dofs, [`super::Formulation::Auto`] shoots matrix-free when the integrator
-/// records its linearisation (the implicit collocation methods). Measured on the ECL beam to
-/// +20%: see README "Performance".
-pub const MATRIX_FREE_DOFS: usize = 150;
-
 /// Relative residual GMRES solves each Newton correction to: well below the shooting
 /// tolerance, so that Newton's convergence is that of the exact Jacobian.
 const GMRES_TOLERANCE: f64 = 1e-11;
