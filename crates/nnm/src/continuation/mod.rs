@@ -19,8 +19,8 @@ pub mod step;
 pub use iterator::{Continuation, Item, Segment};
 
 /// A linearisation of `F` at one `u`: the residual and the solution of bordered systems
-/// `[J; bᵀ] x = [r; c]` (eqs. (20)–(23)). Dense least squares today; a matrix-free Krylov
-/// solver implements the same method.
+/// `[J; bᵀ] x = [r; c]` (eqs. (20)–(23)): by dense least squares, or by GMRES on a square
+/// augmented system in the matrix-free formulation (docs/method.md eq. (74)).
 pub trait Linearization {
     /// The residual rows `F(u)` (possibly more rows than `N`: consistent overdetermined
     /// systems are solved in least squares).

@@ -255,25 +255,17 @@ impl MatrixFreeJacobian {
 
 impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
     /// The shooting equations at `u = (u_y, τ)` by one integration that records its
-    /// linearisation: rows `[W H / A; ĝ_refᵀ (u_y − u_ref)]`, and the operator of their
-    /// Jacobian.
+    /// linearisation: rows `[W H / A; phase]` (the section (75), or flow-orthogonal to the
+    /// reference for a start without displacement), and the operator of their Jacobian.
     pub(super) fn evaluate_matrix_free(
         &mut self,
         u: &[f64],
         phase_reference: &[f64],
     ) -> Result<Evaluation, ShootingError> {
-        let free = self.matrix_free.as_ref().expect("matrix-free formulation");
         let n2 = 2 * self.n;
-        let period = u[n2] * self.period_ref;
-        if !(period.is_finite() && period > 0.0) {
-            return Err(ShootingError::NonPositivePeriod(period));
-        }
+        let (period, horizon, sign) = self.horizon(u[n2])?;
+        let free = self.matrix_free.as_ref().expect("matrix-free formulation");
         let z0 = free.state(&u[..n2]);
-        let (horizon, sign) = if self.half_period {
-            (0.5 * period, 1.0)
-        } else {
-            (period, -1.0)
-        };
         self.scale_tolerances(&z0);
         let (flow, linearization) = self.integrator.flow_linearized(
             &z0,
@@ -283,8 +275,7 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             },
         )?;
         self.first_step = flow.steps.first().copied();
-        self.stats.integrations += 1;
-        self.stats.integration += flow.stats;
+        self.count_integration(&flow);
         let free = self.matrix_free.as_ref().expect("matrix-free formulation");
         let h: Vec<f64> = (0..n2).map(|i| flow.z[i] + sign * z0[i]).collect();
         let mut rows = free.unknowns(&h);

@@ -490,9 +490,27 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
     ) -> Result<Flow, IntegrationError> {
         self.scale_tolerances(z0);
         let flow = self.integrator.flow(z0, period, directions, steps)?;
+        self.count_integration(&flow);
+        Ok(flow)
+    }
+
+    fn count_integration(&mut self, flow: &Flow) {
         self.stats.integrations += 1;
         self.stats.integration += flow.stats;
-        Ok(flow)
+    }
+
+    /// `T = τ T_ref` (`NonPositivePeriod` unless positive and finite), the horizon shot
+    /// (`T` or `T/2`) and the sign of `z0` in `H = z(horizon) ± z0`.
+    fn horizon(&self, tau: f64) -> Result<(f64, f64, f64), ShootingError> {
+        let period = tau * self.period_ref;
+        if !(period.is_finite() && period > 0.0) {
+            return Err(ShootingError::NonPositivePeriod(period));
+        }
+        Ok(if self.half_period {
+            (period, 0.5 * period, 1.0)
+        } else {
+            (period, period, -1.0)
+        })
     }
 
     /// Sets the integrator's absolute tolerance from the motion's displacement scale
@@ -577,17 +595,9 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         }
         let n2 = 2 * self.n;
         let m = u.len() - 1;
-        let period = u[m] * self.period_ref;
-        if !(period.is_finite() && period > 0.0) {
-            return Err(ShootingError::NonPositivePeriod(period));
-        }
+        let (period, horizon, sign) = self.horizon(u[m])?;
         let z0 = self.initial_state(u);
         let directions = std::mem::take(&mut self.state_basis);
-        let (horizon, sign) = if self.half_period {
-            (0.5 * period, 1.0)
-        } else {
-            (period, -1.0)
-        };
         let result = self.flow_with_derivative(&z0, horizon, &directions, None);
         self.state_basis = directions;
         let (flow, derivative) = result?;
