@@ -122,6 +122,8 @@ struct ModelSpec {
     disk_coupling: Option<f64>,
     blade_stiffness: Option<f64>,
     cubic: Option<f64>,
+    /// `bladed-disk`: relative blade-stiffness deviations, one per sector.
+    blade_stiffness_mistuning: Option<Vec<f64>>,
     natural_frequency: Option<f64>,
     elements: Option<usize>,
     length: Option<f64>,
@@ -341,6 +343,75 @@ pub fn load_job(path: &Path) -> Result<Job, JobError> {
 /// Parses a job from text; `path` names it in errors and anchors relative matrix files.
 pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
     let file: JobFile = toml::from_str(text).map_err(|e| syntax_error(&e, text, path))?;
+    job_from_file(file, path)
+}
+
+/// Reads a job file with some of its keys replaced: the parameter studies' way of varying a
+/// job (`python -m nnm sweep --grid model.cubic=...`, mistuning as
+/// `model.blade_stiffness_mistuning`). Each override is a dotted key, `model.KEY`,
+/// `settings.KEY` or `branch.NAME.KEY`, and a value of the type the key takes; the job is then
+/// validated as if the file said so (messages name the file, without a line).
+pub fn load_job_with(path: &Path, overrides: &[(String, toml::Value)]) -> Result<Job, JobError> {
+    if overrides.is_empty() {
+        return load_job(path);
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| JobError::Read {
+        path: path.to_owned(),
+        reason: io_reason(&e),
+    })?;
+    let mut table: toml::Table = text.parse().map_err(|e| syntax_error(&e, &text, path))?;
+    for (key, value) in overrides {
+        override_key(&mut table, key, value.clone()).map_err(|message| JobError::Invalid {
+            path: path.to_owned(),
+            message: format!("override `{key}`: {message}"),
+        })?;
+    }
+    let file: JobFile = table
+        .try_into()
+        .map_err(|e: toml::de::Error| JobError::Invalid {
+            path: path.to_owned(),
+            message: e.message().trim().to_string(),
+        })?;
+    job_from_file(file, path)
+}
+
+/// Sets `key` (see [`load_job_with`]) in a job file's table, creating `[settings]` or the
+/// `[model]` key if absent; a branch must exist.
+fn override_key(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
+    let parts: Vec<&str> = key.split('.').collect();
+    let target = match parts.as_slice() {
+        ["model" | "settings", _] => {
+            let section = table
+                .entry(parts[0])
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            section
+                .as_table_mut()
+                .ok_or_else(|| format!("[{}] is not a table", parts[0]))?
+        }
+        ["branch", name, _] => table
+            .get_mut("branch")
+            .and_then(|b| b.as_array_mut())
+            .and_then(|branches| {
+                branches.iter_mut().find_map(|b| {
+                    b.as_table_mut()
+                        .filter(|t| t.get("name").and_then(|n| n.as_str()) == Some(*name))
+                })
+            })
+            .ok_or_else(|| format!("the job has no branch `{name}`"))?,
+        _ => {
+            return Err("expected `model.KEY`, `settings.KEY` or `branch.NAME.KEY`".to_string());
+        }
+    };
+    let last = parts[parts.len() - 1];
+    if last == "name" || last == "family" {
+        return Err(format!("`{last}` cannot be overridden"));
+    }
+    target.insert(last.to_string(), value);
+    Ok(())
+}
+
+/// A parsed job file, checked and built.
+fn job_from_file(file: JobFile, path: &Path) -> Result<Job, JobError> {
     let invalid = |message: String| JobError::Invalid {
         path: path.to_owned(),
         message,
@@ -437,6 +508,10 @@ fn build_model(
         ("disk_coupling", spec.disk_coupling.is_some()),
         ("blade_stiffness", spec.blade_stiffness.is_some()),
         ("cubic", spec.cubic.is_some()),
+        (
+            "blade_stiffness_mistuning",
+            spec.blade_stiffness_mistuning.is_some(),
+        ),
         ("natural_frequency", spec.natural_frequency.is_some()),
         ("elements", spec.elements.is_some()),
         ("length", spec.length.is_some()),
@@ -459,6 +534,7 @@ fn build_model(
             "disk_coupling",
             "blade_stiffness",
             "cubic",
+            "blade_stiffness_mistuning",
         ],
         "duffing" => &["natural_frequency", "cubic"],
         "two-dof" => &["cubic"],
@@ -501,6 +577,10 @@ fn build_model(
                 disk_coupling: spec.disk_coupling.unwrap_or(d.disk_coupling),
                 blade_stiffness: spec.blade_stiffness.unwrap_or(d.blade_stiffness),
                 cubic: spec.cubic.unwrap_or(d.cubic),
+                blade_stiffness_mistuning: spec
+                    .blade_stiffness_mistuning
+                    .clone()
+                    .unwrap_or_default(),
             }
             .build()
             .map_err(model_error)?

@@ -1,5 +1,5 @@
 use super::*;
-use nnm::model::{PolynomialSpring, PolynomialTensor};
+use nnm::model::{MechanicalSystem, PolynomialSpring, PolynomialTensor};
 use nnm::shooting::{JacobianMethod, PhaseCondition};
 
 fn parse(text: &str) -> Result<Job, JobError> {
@@ -622,4 +622,65 @@ fn von_karman_beam_family_takes_its_parameters() {
     assert!(e.contains("`height` does not apply"), "{e}");
     let e = error("[model]\nfamily = \"von-karman-beam\"\nelements = 1");
     assert!(e.contains("elements"), "{e}");
+}
+
+/// Overrides replace a job's keys as if the file said so: a model parameter, a default
+/// setting and one branch's setting; the blade mistuning reaches the stiffness matrix
+/// (`k_i = k (1 + δ_i)` between disk `2i` and blade `2i+1`) and drops the cyclic symmetry.
+/// Bad overrides are one-line errors naming the key.
+#[test]
+fn overrides_replace_keys_of_the_job_file() {
+    let dir = scratch("overrides");
+    let job_path = dir.join("job.toml");
+    std::fs::write(
+        &job_path,
+        "[model]\nfamily = \"bladed-disk\"\nsectors = 3\n[settings]\nenergy_max = 2.0\n\
+         [[branch]]\nname = \"a\"\nmode = \"1,0\"\n[[branch]]\nname = \"b\"\nmode = 0\n",
+    )
+    .unwrap();
+    let overrides = [
+        ("model.cubic".to_string(), toml::Value::Float(0.5)),
+        (
+            "model.blade_stiffness_mistuning".to_string(),
+            toml::Value::Array(vec![0.1.into(), 0.0.into(), (-0.2).into()]),
+        ),
+        ("settings.tolerance".to_string(), toml::Value::Float(1e-9)),
+        ("branch.b.energy_max".to_string(), toml::Value::Float(7.0)),
+    ];
+    let job = load_job_with(&job_path, &overrides).unwrap();
+    let k = job.structure.stiffness();
+    for (sector, deviation) in [0.1, 0.0, -0.2].into_iter().enumerate() {
+        let (disk, blade) = (2 * sector, 2 * sector + 1);
+        assert_eq!(k.get(disk, blade), -(1.0 + deviation));
+        assert_eq!(k.get(blade, blade), 1.0 + deviation);
+    }
+    assert!(job.structure.cyclic_symmetry().is_none());
+    let [a, b] = &job.branches[..] else {
+        panic!("two branches")
+    };
+    assert_eq!(a.settings.limits.energy_max, 2.0);
+    assert_eq!(b.settings.limits.energy_max, 7.0);
+    assert_eq!(a.settings.continuation.tolerance, 1e-9);
+    // Without overrides the file is read as is: tuned, cyclic.
+    let tuned = load_job_with(&job_path, &[]).unwrap();
+    assert!(tuned.structure.cyclic_symmetry().is_some());
+
+    let one_line = |key: &str, value: toml::Value| {
+        let e = load_job_with(&job_path, &[(key.to_string(), value)])
+            .expect_err("refused")
+            .to_string();
+        assert!(!e.contains('\n') && e.contains("job.toml"), "{e}");
+        e
+    };
+    assert!(one_line("branch.c.energy_max", 1.0.into()).contains("no branch `c`"));
+    assert!(one_line("cubic", 1.0.into()).contains("expected `model.KEY`"));
+    assert!(one_line("model.family", "duffing".into()).contains("cannot be overridden"));
+    let short = toml::Value::Array(vec![0.1.into()]);
+    assert!(
+        one_line("model.blade_stiffness_mistuning", short).contains("one deviation per sector (3)")
+    );
+    let negative = toml::Value::Array(vec![0.0.into(), (-1.5).into(), 0.0.into()]);
+    assert!(one_line("model.blade_stiffness_mistuning", negative).contains("[1] = -1.5"));
+    assert!(one_line("model.elements", 4.into()).contains("does not apply to family"));
+    std::fs::remove_dir_all(&dir).ok();
 }

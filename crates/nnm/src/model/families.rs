@@ -68,6 +68,11 @@ pub struct BladedDisk {
     pub blade_stiffness: f64,
     /// `knl`
     pub cubic: f64,
+    /// Blade mistuning: relative deviations `δ_i` of the blade stiffnesses, `k_i = k (1 + δ_i)`
+    /// (docs/method.md eq. (52) with `k` per sector). Empty for the tuned disk; otherwise one
+    /// per sector, each above −1. A mistuned disk has no cyclic symmetry, so none is declared
+    /// (its modes carry no `(n, d)` labels: its degenerate pairs split).
+    pub blade_stiffness_mistuning: Vec<f64>,
 }
 
 impl Default for BladedDisk {
@@ -80,6 +85,7 @@ impl Default for BladedDisk {
             disk_coupling: 1.0,
             blade_stiffness: 1.0,
             cubic: 0.1,
+            blade_stiffness_mistuning: Vec::new(),
         }
     }
 }
@@ -99,6 +105,22 @@ impl BladedDisk {
         finite("disk_coupling", self.disk_coupling)?;
         finite("blade_stiffness", self.blade_stiffness)?;
         finite("cubic", self.cubic)?;
+        let mistuning = &self.blade_stiffness_mistuning;
+        if !mistuning.is_empty() && mistuning.len() != n_s {
+            return Err(ModelError::InvalidParameter(format!(
+                "blade_stiffness_mistuning needs one deviation per sector ({n_s}), got {}",
+                mistuning.len()
+            )));
+        }
+        if let Some((i, d)) = mistuning
+            .iter()
+            .enumerate()
+            .find(|(_, d)| !(d.is_finite() && **d > -1.0))
+        {
+            return Err(ModelError::InvalidParameter(format!(
+                "blade_stiffness_mistuning[{i}] = {d}: a deviation must be finite and above -1 (k_i = k (1 + deviation))"
+            )));
+        }
         let n = 2 * n_s;
         // Assembled sparse (duplicates summed): no dense n × n matrix for many sectors.
         let mass: Vec<(usize, usize, f64)> = (0..n)
@@ -117,7 +139,8 @@ impl BladedDisk {
         };
         for i in 0..n_s {
             let (disk, blade) = (2 * i, 2 * i + 1);
-            spring(disk, blade, self.blade_stiffness);
+            let deviation = mistuning.get(i).copied().unwrap_or(0.0);
+            spring(disk, blade, self.blade_stiffness * (1.0 + deviation));
             // The ring of disk springs: sector i to sector i+1 (cyclically), once each.
             if n_s > 1 {
                 spring(disk, 2 * ((i + 1) % n_s), self.disk_coupling);
@@ -132,11 +155,61 @@ impl BladedDisk {
         let sparse = |t: &[(usize, usize, f64)]| {
             SparseMatrix::from_triplets(n, t).map_err(ModelError::InvalidParameter)
         };
-        Structure::new(sparse(&mass)?, sparse(&stiffness)?, elements)?.with_cyclic_symmetry(
-            CyclicSymmetry {
-                sectors: n_s,
-                dofs_per_sector: 2,
-            },
-        )
+        let structure = Structure::new(sparse(&mass)?, sparse(&stiffness)?, elements)?;
+        if mistuning.iter().any(|&d| d != 0.0) {
+            return Ok(structure);
+        }
+        structure.with_cyclic_symmetry(CyclicSymmetry {
+            sectors: n_s,
+            dofs_per_sector: 2,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::modes::linear_modes;
+
+    fn frequencies(disk: &BladedDisk) -> Vec<f64> {
+        let modes = linear_modes(&disk.build().unwrap()).unwrap();
+        modes.iter().map(|m| m.frequency).collect()
+    }
+
+    /// The same deviation on every blade is a tuned disk of stiffer blades: the same
+    /// frequencies (but declared without symmetry, so unlabelled); different deviations split
+    /// every degenerate pair `(n, d)`, `0 < d < N/2`, into two distinct frequencies.
+    #[test]
+    fn mistuning_scales_the_blade_springs_and_splits_the_pairs() {
+        let sectors = 8;
+        let uniform = BladedDisk {
+            sectors,
+            blade_stiffness_mistuning: vec![0.05; sectors],
+            ..Default::default()
+        };
+        let stiffer = BladedDisk {
+            sectors,
+            blade_stiffness: 1.05,
+            ..Default::default()
+        };
+        for (a, b) in frequencies(&uniform).iter().zip(frequencies(&stiffer)) {
+            assert!((a - b).abs() <= 1e-12 * b.max(1.0), "{a} vs {b}");
+        }
+        let modes = linear_modes(&uniform.build().unwrap()).unwrap();
+        assert!(modes.iter().all(|m| m.cyclic.is_none()));
+
+        let tuned = frequencies(&BladedDisk {
+            sectors,
+            ..Default::default()
+        });
+        let mistuned = frequencies(&BladedDisk {
+            sectors,
+            blade_stiffness_mistuning: (0..sectors).map(|i| 0.02 * (i as f64 - 3.5)).collect(),
+            ..Default::default()
+        });
+        // The tuned disk's pairs are equal to round-off, the mistuned ones are not.
+        let pairs = |f: &[f64]| f.windows(2).filter(|w| (w[1] - w[0]) < 1e-9).count();
+        assert_eq!(pairs(&tuned), 2 * (sectors / 2 - 1));
+        assert_eq!(pairs(&mistuned), 0);
     }
 }
