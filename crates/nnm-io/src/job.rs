@@ -225,24 +225,7 @@ pub fn branch_body(
     defaults: &toml::Table,
     from_event: bool,
 ) -> Result<BranchBody, String> {
-    let mode = match (table.remove("mode"), from_event) {
-        (Some(_), true) => return Err("give either `mode` or `start`, not both".into()),
-        (None, true) => String::new(),
-        (Some(toml::Value::String(s)), false) => s,
-        (Some(toml::Value::Integer(i)), false) if i >= 0 => i.to_string(),
-        (Some(_), false) => {
-            return Err("`mode` must be a label \"n,d\" or a non-negative index".into());
-        }
-        (None, false) => {
-            return Err("missing `mode` (or `start = { branch = \"NAME\", event = K }`)".into());
-        }
-    };
-    let pattern = match table.remove("pattern") {
-        None => None,
-        Some(toml::Value::String(s)) if s == "cos" => Some(StandingWave::Cos),
-        Some(toml::Value::String(s)) if s == "sin" => Some(StandingWave::Sin),
-        Some(_) => return Err("`pattern` must be \"cos\" or \"sin\"".into()),
-    };
+    let (mode, pattern) = branch_mode(&mut table, from_event)?;
     if from_event {
         // A switched branch takes its start, unknowns and period from the switch.
         let ignored = [
@@ -274,6 +257,33 @@ pub fn branch_body(
         pattern,
         settings,
     })
+}
+
+/// A branch's `mode` and `pattern`, taken out of its table (see [`branch_body`]); also for
+/// front ends that run a job's branch from another mode.
+pub fn branch_mode(
+    table: &mut toml::Table,
+    from_event: bool,
+) -> Result<(String, Option<StandingWave>), String> {
+    let mode = match (table.remove("mode"), from_event) {
+        (Some(_), true) => return Err("give either `mode` or `start`, not both".into()),
+        (None, true) => String::new(),
+        (Some(toml::Value::String(s)), false) => s,
+        (Some(toml::Value::Integer(i)), false) if i >= 0 => i.to_string(),
+        (Some(_), false) => {
+            return Err("`mode` must be a label \"n,d\" or a non-negative index".into());
+        }
+        (None, false) => {
+            return Err("missing `mode` (or `start = { branch = \"NAME\", event = K }`)".into());
+        }
+    };
+    let pattern = match table.remove("pattern") {
+        None => None,
+        Some(toml::Value::String(s)) if s == "cos" => Some(StandingWave::Cos),
+        Some(toml::Value::String(s)) if s == "sin" => Some(StandingWave::Sin),
+        Some(_) => return Err("`pattern` must be \"cos\" or \"sin\"".into()),
+    };
+    Ok((mode, pattern))
 }
 
 /// The index of the starting mode of a branch asked for as `mode` (a label `"n,d"` or an
@@ -359,19 +369,32 @@ pub fn load_job_with(path: &Path, overrides: &[(String, toml::Value)]) -> Result
         path: path.to_owned(),
         reason: io_reason(&e),
     })?;
-    let mut table: toml::Table = text.parse().map_err(|e| syntax_error(&e, &text, path))?;
+    let original: toml::Table = text.parse().map_err(|e| syntax_error(&e, &text, path))?;
+    let invalid = |key: &str, message: String| JobError::Invalid {
+        path: path.to_owned(),
+        message: format!("override `{key}`: {message}"),
+    };
+    let mut table = original.clone();
     for (key, value) in overrides {
-        override_key(&mut table, key, value.clone()).map_err(|message| JobError::Invalid {
-            path: path.to_owned(),
-            message: format!("override `{key}`: {message}"),
-        })?;
+        override_key(&mut table, key, value.clone()).map_err(|m| invalid(key, m))?;
     }
-    let file: JobFile = table
-        .try_into()
-        .map_err(|e: toml::de::Error| JobError::Invalid {
-            path: path.to_owned(),
-            message: e.message().trim().to_string(),
-        })?;
+    let file: JobFile = table.try_into().map_err(|e: toml::de::Error| {
+        // serde's message names the type, not the key: find the override that breaks the
+        // file on its own (the file itself parsed).
+        let message = e.message().trim().to_string();
+        let culprit = overrides.iter().find(|(key, value)| {
+            let mut alone = original.clone();
+            override_key(&mut alone, key, value.clone()).is_ok()
+                && alone.try_into::<JobFile>().is_err()
+        });
+        match culprit {
+            Some((key, _)) => invalid(key, message),
+            None => JobError::Invalid {
+                path: path.to_owned(),
+                message,
+            },
+        }
+    })?;
     job_from_file(file, path)
 }
 

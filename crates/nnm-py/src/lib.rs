@@ -210,11 +210,25 @@ impl NativeModel {
     }
 
     /// The model (and branches) of a job file, read as `nnm run` reads it (without the GIL:
-    /// a finite-element export can take a while to read).
+    /// a finite-element export can take a while to read), with `overrides` (dotted keys,
+    /// `nnm_io::job::load_job_with`) replacing keys of the file.
     #[staticmethod]
-    fn from_job(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+    #[pyo3(signature = (path, overrides=None))]
+    fn from_job(
+        py: Python<'_>,
+        path: PathBuf,
+        overrides: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let mut replaced = Vec::new();
+        for (key, value) in overrides.iter().flat_map(|d| d.iter()) {
+            let key: String = key.extract()?;
+            let value = convert::to_toml(&key, &value)?;
+            replaced.push((key, value));
+        }
         let job = py.detach(|| {
-            no_panic(|| nnm_io::job::load_job(&path).map_err(|e| job_error(&path, e)))
+            no_panic(|| {
+                nnm_io::job::load_job_with(&path, &replaced).map_err(|e| job_error(&path, e))
+            })
         })?;
         Ok(Self {
             structure: job.structure,
@@ -287,6 +301,17 @@ impl NativeModel {
         self.branches.iter().map(|b| b.name.clone()).collect()
     }
 
+    /// The starting mode of the job's branch `name`, as written (`"n,d"` or an index), and its
+    /// standing-wave pattern: `None` for a branch switched from an event.
+    fn branch_mode(&self, name: &str) -> PyResult<Option<(String, Option<&'static str>)>> {
+        let body = match self.branches.iter().find(|b| b.name == name) {
+            Some(b) if b.from_event.is_some() => return Ok(None),
+            Some(_) => self.job_branch(name, false)?,
+            None => return self.job_branch(name, false).map(|_| None),
+        };
+        Ok(Some((body.mode, wave_name(body.pattern))))
+    }
+
     /// `"mass"` or `"stiffness"` as given: a 2-D array, or `(n, indptr, indices, data)` of
     /// compressed sparse rows.
     fn matrix<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
@@ -352,7 +377,20 @@ impl NativeModel {
         callback: Option<Py<PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let body = match branch {
-            Some(name) => self.job_branch(&name, mode.is_some() || !settings.is_empty())?,
+            Some(name) => {
+                let mut body = self.job_branch(&name, !settings.is_empty())?;
+                if let Some(mode) = mode {
+                    // The branch's settings from another mode: a sweep follows the job's
+                    // branch on a mistuned model, whose mode is found by its shape.
+                    let mut table = toml::Table::from_iter([(
+                        "mode".to_string(),
+                        convert::to_toml("mode", mode)?,
+                    )]);
+                    (body.mode, body.pattern) =
+                        nnm_io::job::branch_mode(&mut table, false).map_err(input_error)?;
+                }
+                body
+            }
             None => {
                 let mut table = table_from_dict(settings)?;
                 if let Some(mode) = mode {
@@ -569,7 +607,7 @@ impl NativeModel {
     fn job_branch(&self, name: &str, overridden: bool) -> PyResult<BranchBody> {
         if overridden {
             return Err(PyTypeError::new_err(
-                "give either `branch` (a branch of the job file, with its settings) or `mode` and settings",
+                "give either `branch` (a branch of the job file, with its settings, and optionally another `mode`) or `mode` and settings",
             ));
         }
         let job = self

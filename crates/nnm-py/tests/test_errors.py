@@ -125,7 +125,7 @@ def test_shapes_and_types_are_checked_before_the_library() -> None:
     with pytest.raises(TypeError, match="needs `mode`"):
         nnm.backbone(nnm.duffing(), energy_max=1.0)
     with pytest.raises(TypeError, match="either `branch`"):
-        nnm.backbone(nnm.duffing(), 0, branch="b")
+        nnm.backbone(nnm.duffing(), 0, branch="b", energy_max=1.0)  # a job branch has its settings
     with pytest.raises(ValueError, match="no branch `b`"):
         nnm.backbone(nnm.duffing(), branch="b")
     with pytest.raises(FileNotFoundError):

@@ -682,5 +682,10 @@ fn overrides_replace_keys_of_the_job_file() {
     let negative = toml::Value::Array(vec![0.0.into(), (-1.5).into(), 0.0.into()]);
     assert!(one_line("model.blade_stiffness_mistuning", negative).contains("[1] = -1.5"));
     assert!(one_line("model.elements", 4.into()).contains("does not apply to family"));
+    let fractional = one_line("model.sectors", 2.5.into());
+    assert!(
+        fractional.contains("override `model.sectors`: invalid type"),
+        "{fractional}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -15,6 +15,8 @@ Models: :class:`Model` (``M``, ``K`` as numpy or scipy.sparse, with :class:`Cubi
 :func:`bladed_disk`, :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`,
 :func:`von_karman_beam`. Analyses: :func:`modes`, :func:`backbone` (a :class:`Branch`),
 :func:`switch` (the family through a branch point or period doubling of a branch).
+Sweeps over mistuned or varied models on Dask: :func:`sweep` (:mod:`nnm.sweeps`; on the
+command line ``python -m nnm sweep``).
 Figures: :mod:`nnm.plot`. Errors: ``ValueError``/``TypeError`` for bad input,
 :class:`ContinuationError` (a :class:`NumericalError`) for a branch that failed, with its
 points so far.
@@ -36,6 +38,7 @@ from ._model import (
     von_karman_beam,
 )
 from ._nnm import SETTINGS_KEYS, __version__
+from .sweeps import sweep
 
 __all__ = [
     "Branch",
@@ -55,6 +58,7 @@ __all__ = [
     "cantilever_beam",
     "duffing",
     "modes",
+    "sweep",
     "switch",
     "two_dof",
     "von_karman_beam",

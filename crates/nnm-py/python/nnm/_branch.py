@@ -239,7 +239,8 @@ def backbone(
     ``target_iterations``, ``max_turn_angle``, ``energy_start``, ``symmetry``, ``phase``,
     ``jacobian``, ``half_period``, ``integrator``, ``integration_factor``,
     ``stability_tolerance``, ``events``; README "Job files"). ``branch=NAME`` instead runs a
-    ``[[branch]]`` of the job file the model came from, with its settings.
+    ``[[branch]]`` of the job file the model came from, with its settings (from ``mode``
+    instead of the branch's own when both are given: what a sweep does on a mistuned disk).
 
     The computation runs without the GIL. Ctrl-C stops it between points (raising
     ``KeyboardInterrupt``); ``callback(index, energy, frequency, stable)`` is called after

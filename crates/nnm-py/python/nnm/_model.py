@@ -189,12 +189,18 @@ class Model:
         return model
 
     @classmethod
-    def from_job(cls, path: str | os.PathLike) -> "Model":
+    def from_job(cls, path: str | os.PathLike, overrides: dict[str, Any] | None = None) -> "Model":
         """The model of a job file (TOML), read exactly as ``nnm run`` reads it (Matrix
         Market and tensor files resolved relative to it). Its branches are in
         :attr:`branches`; ``nnm.backbone(model, branch=NAME)`` runs one as ``nnm run``
-        would."""
-        return cls._wrap(_nnm.NativeModel.from_job(os.fspath(path)))
+        would.
+
+        ``overrides`` replaces keys of the file, as a parameter study varies them: dotted
+        keys ``"model.KEY"``, ``"settings.KEY"`` or ``"branch.NAME.KEY"`` with the values
+        the file would hold, e.g. ``{"model.cubic": 0.2, "branch.mode-1-5.energy_max": 5}``
+        (the blade mistuning of a bladed disk is ``"model.blade_stiffness_mistuning"``, one
+        relative deviation per sector)."""
+        return cls._wrap(_nnm.NativeModel.from_job(os.fspath(path), overrides))
 
     @classmethod
     def _family(cls, family: str, parameters: dict[str, Any]) -> "Model":
@@ -335,13 +341,21 @@ def bladed_disk(
     disk_coupling: float = 1.0,
     blade_stiffness: float = 1.0,
     cubic: float = 0.1,
+    blade_stiffness_mistuning: Sequence[float] | None = None,
 ) -> Model:
     """The paper's bladed disk (docs/method.md §11): ``sectors`` sectors of a disk mass
     ``disk_mass`` (M) and a blade mass ``blade_mass`` (m), disks coupled by ``disk_coupling``
     (K), each blade on its disk by a linear spring ``blade_stiffness`` (k) and a cubic one
     ``cubic`` (knl). Dof ``2i`` is the disk of sector ``i``, ``2i + 1`` its blade; cyclic, so
-    modes are labelled ``(n, d)`` (Table 1 of the paper with the defaults)."""
-    return Model._family("bladed-disk", locals())
+    modes are labelled ``(n, d)`` (Table 1 of the paper with the defaults).
+
+    ``blade_stiffness_mistuning`` (one relative deviation ``δ_i > -1`` per sector) mistunes
+    the blades, ``k_i = k (1 + δ_i)``; a mistuned disk is not cyclic (its modes are
+    unlabelled, its pairs split)."""
+    parameters = dict(locals())
+    if blade_stiffness_mistuning is not None:
+        parameters["blade_stiffness_mistuning"] = [float(d) for d in blade_stiffness_mistuning]
+    return Model._family("bladed-disk", parameters)
 
 
 def duffing(*, natural_frequency: float = 1.0, cubic: float = 1.0) -> Model:

@@ -1,0 +1,130 @@
+"""``python -m nnm sweep``: a job's branches over mistuned or varied models, on Dask.
+
+Exit status: 0 when every sample's branch reached its limit, 3 when some stopped early (their
+rows say why), 2 for bad input (one line on stderr), 130 when interrupted (the samples
+finished so far are in sweep.csv; rerun the same command to go on).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import NoReturn, Sequence
+
+EPILOG = """\
+examples:
+  python -m nnm sweep examples/bladed-disk.toml --branch mode-1-14 --out sweep/ \\
+      --samples 50 --mistuning 0.01,0.02,0.05 --seed 1
+  python -m nnm sweep examples/bladed-disk.toml --out grid/ --grid model.cubic=0.05,0.1,0.2
+  python -m nnm sweep job.toml --out sweep/ --samples 200 --mistuning 0.02 \\
+      --scheduler tcp://scheduler:8786      # an existing Dask cluster (README "Sweeps")
+
+The job's branches give the modes and the energy range (their limits); every branch started
+from a mode is swept unless --branch names some. Rerunning into the same --out skips the
+samples already in DIR/sweep.csv.
+"""
+
+
+def _number(text: str) -> int | float:
+    """An integer when written as one (a key such as `sectors` takes only integers)."""
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
+
+
+def _levels(text: str) -> list[int | float]:
+    try:
+        values = [_number(v.strip()) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected numbers separated by commas, got `{text}`") from None
+    if not values:
+        raise argparse.ArgumentTypeError("expected at least one number")
+    return values
+
+
+def _grid(text: str) -> tuple[str, list[float]]:
+    key, sep, values = text.partition("=")
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(f"expected KEY=V1,V2,... (e.g. model.cubic=0.05,0.1), got `{text}`")
+    return key.strip(), _levels(values)
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line (as every other error of nnm), pointing to --help."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"error: {message} (see `{self.prog} --help`)\n")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="python -m nnm", description="nnm from Python: parameter and mistuning sweeps on Dask.")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    s = commands.add_parser(
+        "sweep",
+        help="follow a job's branches over mistuned or varied models, in parallel",
+        description="Follows a job's branches over randomly mistuned bladed disks and/or a grid of job parameters, on Dask, writing DIR/sweep.csv (one row per sample, as each completes), DIR/samples/, DIR/statistics.csv and figures.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    s.add_argument("job", help="the job file (TOML), as for `nnm run`")
+    s.add_argument("--out", required=True, metavar="DIR", help="output folder (a rerun into it resumes)")
+    s.add_argument("--branch", action="append", metavar="NAME", help="a branch of the job to sweep (repeatable; default: all started from a mode)")
+    s.add_argument("--samples", type=int, default=0, metavar="N", help="mistuned replicates per level")
+    s.add_argument("--mistuning", type=_levels, default=[], metavar="SIGMA[,SIGMA...]", help="relative standard deviation(s) of the blade stiffnesses, k_i = k (1 + σ ξ_i)")
+    s.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the mistuning draws (default 0)")
+    s.add_argument("--grid", type=_grid, action="append", default=[], metavar="KEY=V1,V2,...", help="vary a job key (model.KEY, settings.KEY, branch.NAME.KEY) over values; repeatable, every combination runs")
+    s.add_argument("--localization-sectors", type=int, metavar="K", help="sectors counted by the localization (default: a tenth of the sectors)")
+    where = s.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="W", help="processes of the local Dask cluster (default: the cores)")
+    where.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://host:8786")
+    s.add_argument("--no-figures", action="store_true", help="write no figures")
+    s.add_argument("--quiet", action="store_true", help="print errors only")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    from .sweeps import sweep
+
+    if args.samples < 0:
+        print("error: --samples must be non-negative", file=sys.stderr)
+        return 2
+    if args.workers is not None and args.workers < 1:
+        print("error: --workers must be at least 1", file=sys.stderr)
+        return 2
+    grid = dict(args.grid)
+    if len(grid) != len(args.grid):
+        print("error: a --grid key is given twice", file=sys.stderr)
+        return 2
+    try:
+        result = sweep(
+            args.job,
+            args.out,
+            branches=args.branch,
+            samples=args.samples,
+            mistuning=args.mistuning,
+            seed=args.seed,
+            grid=grid,
+            localization_sectors=args.localization_sectors,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+            figures=not args.no_figures,
+        )
+    except (ValueError, TypeError, FileNotFoundError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except ImportError as e:
+        print(f"error: {e} (sweeps need dask[distributed]: pip install 'dask[distributed]')", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"nnm sweep: interrupted; the finished samples are in {args.out}/sweep.csv (rerun to go on)", file=sys.stderr)
+        return 130
+    if not args.quiet:
+        print(f"{result!r}\n  {result.out}/sweep.csv, statistics.csv, samples/{', figures' if not args.no_figures else ''}")
+    return 3 if result.failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

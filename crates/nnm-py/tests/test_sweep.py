@@ -1,0 +1,227 @@
+"""Sweeps on Dask (nnm.sweeps, `python -m nnm sweep`): the mistuned model against an
+independent assembly, the localization against the linear mode's shape, a mistuned disk's
+split pairs followed to their limits, determinism, resumption, a lost worker, bad input."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+import nnm
+from nnm import sweeps
+
+distributed = pytest.importorskip("distributed")
+
+def disk(sectors: int, mode: str) -> str:
+    """A bladed-disk job with one branch, `mode-N-D` from mode "N,D"."""
+    return SMALL_DISK.replace("sectors = 6", f"sectors = {sectors}").replace("1,2", mode).replace("1-2", mode.replace(",", "-"))
+
+
+SMALL_DISK = """
+[model]
+family = "bladed-disk"
+sectors = 6
+
+[settings]
+frequency_shift_max = 0.03
+tolerance = 1e-9
+
+[[branch]]
+name = "mode-1-2"
+mode = "1,2"
+"""
+
+
+@pytest.fixture(scope="module")
+def client():
+    """Two worker processes, one thread each: what `--workers 2` starts."""
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as c:
+            yield c
+
+
+def rows(out: Path) -> list[dict[str, str]]:
+    with (out / "sweep.csv").open(newline="") as f:
+        return sorted(csv.DictReader(f), key=lambda r: int(r["index"]))
+
+
+def assert_same_numbers(a: list[dict[str, str]], b: list[dict[str, str]]) -> None:
+    """The same rows, bit for bit, but for their timing (the only column allowed to differ)."""
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        differ = {k: (x[k], y[k]) for k in x if k != "seconds" and x[k] != y[k]}
+        assert not differ, f"sample {x['index']}: {differ}"
+
+
+def test_mistuned_disk_is_the_tuned_one_with_each_blade_spring_scaled(write_job) -> None:
+    """The library's mistuned stiffness against one assembled here from the tuned matrix:
+    each blade spring (disk 2i, blade 2i+1) scaled by 1 + σ ξ_i with the documented draw; its
+    frequencies (scipy) are the sample's, and the sample follows the mode most like the tuned
+    one (the largest mass-weighted MAC, computed here independently)."""
+    job = write_job(SMALL_DISK)
+    sigma, seed, replicate = 0.05, 11, 2
+    tuned = nnm.Model.from_job(job)
+    K = tuned.K.toarray()
+    M = tuned.M.toarray()
+    xi = np.random.default_rng([seed, replicate]).standard_normal(6)
+    assert np.array_equal(xi, sweeps.mistuning_draw(seed, replicate, 6))
+    for i, d in enumerate(sigma * xi):
+        a, b = 2 * i, 2 * i + 1
+        K[np.ix_([a, b], [a, b])] += d * np.array([[1.0, -1.0], [-1.0, 1.0]])  # k = 1
+    mistuned = nnm.Model.from_job(job, {"model.blade_stiffness_mistuning": list(sigma * xi)})
+    assert mistuned.cyclic is None
+    assert np.abs(mistuned.K.toarray() - K).max() <= 1e-15
+
+    w2, shapes = scipy.linalg.eigh(K, M)
+    frequencies = np.sqrt(np.clip(w2, 0, None))
+    # Squared, since the rigid mode's ω² is round-off (1e-16) and ω its square root.
+    assert np.allclose(nnm.modes(mistuned).frequencies ** 2, w2, rtol=1e-12, atol=1e-13)
+
+    tuned_modes = nnm.modes(tuned)
+    phi = tuned_modes.shapes[:, tuned_modes.index("1,2")]
+    mac = (shapes.T @ M @ phi) ** 2
+    sample = sweeps.Sample(0, "mode-1-2", (), sigma, replicate)
+    result = sweeps.run_sample(str(job), sample, seed)
+    row = result["row"]
+    assert row["mode"] == int(np.argmax(mac))
+    assert row["mac"] == pytest.approx(mac.max(), abs=1e-12)
+    assert row["linear_frequency"] == pytest.approx(frequencies[row["mode"]], rel=1e-12)
+    assert row["status"] == "ok" and row["frequency_shift"] == pytest.approx(0.03, abs=1e-8)
+
+
+def test_localization_in_the_linear_regime_is_the_share_of_the_modes_blade_amplitudes(write_job) -> None:
+    """Near the linear limit the motion is the mode, x = φ a cos ωt, so the blades' mean
+    kinetic energies are ∝ m φ_b,i²: the localization of the first point (from the integrated
+    motion) is the share of the top sectors' φ_b,i², from the mode shape alone."""
+    job = write_job(disk(30, "1,5"))
+    model = nnm.Model.from_job(job)
+    modes = nnm.modes(model)
+    phi = modes.shapes[:, modes.index("1,5")]
+    blade = phi[1::2] ** 2
+    top = sweeps.default_top(30)
+    assert top == 3
+    expected = np.sort(blade)[-top:].sum() / blade.sum()
+    result = sweeps.run_sample(str(job), sweeps.Sample(0, "mode-1-5", (), 0.0, 0), seed=0)
+    row = result["row"]
+    assert row["localization_linear"] == pytest.approx(expected, abs=2e-3)
+    # Tuned standing wave: about top × 2 / N of the blades' energy in the top sectors.
+    assert 0.15 < row["localization_linear"] < 0.25
+
+
+@pytest.mark.parametrize("sigma", [1e-4, 0.05])
+def test_mistuned_pairs_split_and_each_branch_reaches_its_limit(write_job, sigma: float) -> None:
+    """A mistuned 30-sector disk: the (1,5) pair splits (barely at σ = 1e-4: the two modes are
+    then as close as the continuation must tell apart), and the branch started from the mode
+    most like the tuned cos wave reaches its frequency limit from every draw."""
+    job = write_job(disk(30, "1,5"))
+    for replicate in range(3):
+        row = sweeps.run_sample(str(job), sweeps.Sample(replicate, "mode-1-5", (), sigma, replicate), seed=3)["row"]
+        assert row["status"] == "ok", row["message"]
+        assert row["stop"] == "frequency-shift-max"
+        assert row["frequency_shift"] == pytest.approx(0.03, abs=1e-8)
+        if sigma < 1e-3:
+            # The tuned cos wave lies in the plane of the split pair, so one of the two holds
+            # at least half of it; strong mistuning mixes neighbouring diameters too.
+            assert 0.5 - 1e-3 < row["mac"] <= 1.0
+
+
+def test_sweep_is_deterministic_resumes_and_survives_a_lost_worker(write_job, tmp_path: Path, client) -> None:
+    job = write_job(SMALL_DISK)
+    grid = {"model.cubic": [0.1, 0.2]}
+    first = tmp_path / "first"
+    done = sweeps.sweep(job, first, samples=3, mistuning=[0.02], seed=5, grid=grid, client=client, progress=False)
+    assert (done.computed, done.skipped, done.failed) == (6, 0, 0)
+    reference = rows(first)
+    assert len(reference) == 6 and {r["model.cubic"] for r in reference} == {"0.1", "0.2"}
+    assert all(Path(first, "samples").glob("*.csv"))
+    assert (first / "statistics.csv").exists() and (first / "localization.png").exists()
+    # The cubic stiffness hardens the branch: the same frequency shift at lower energy.
+    by_cubic = {c: np.median([float(r["energy"]) for r in reference if r["model.cubic"] == c]) for c in ("0.1", "0.2")}
+    assert by_cubic["0.2"] < by_cubic["0.1"]
+
+    # A rerun skips everything; more replicates compute only the new ones.
+    again = sweeps.sweep(job, first, samples=3, mistuning=[0.02], seed=5, grid=grid, client=client, progress=False)
+    assert (again.computed, again.skipped) == (0, 6)
+    more = sweeps.sweep(job, first, samples=4, mistuning=[0.02], seed=5, grid=grid, client=client, progress=False)
+    assert (more.computed, more.skipped) == (2, 6)
+
+    # An interruption can leave a row cut short: it is dropped and computed again.
+    second = tmp_path / "second"
+    second.mkdir()
+    lines = (first / "sweep.csv").read_text().splitlines(keepends=True)
+    kept = [line for line in lines if not line.startswith(("3,", "4,", "5,", "6,", "7,"))]
+    (second / "sweep.csv").write_text("".join(kept) + lines[4][:30])
+    (second / "sweep.json").write_text((first / "sweep.json").read_text())
+
+    # One worker is killed as the first new result arrives; Dask reruns its sample elsewhere.
+    killed = []
+
+    def kill_a_worker(row: dict) -> None:
+        if not killed:
+            pids = client.run(os.getpid)  # {worker address: its process}
+            address = sorted(pids)[0]
+            killed.append(address)
+            os.kill(pids[address], signal.SIGKILL)  # as a node that goes down: no goodbye
+
+    resumed = sweeps.sweep(
+        job, second, samples=4, mistuning=[0.02], seed=5, grid=grid, client=client, progress=False, on_row=kill_a_worker
+    )
+    assert killed
+    assert resumed.computed == 8 - (len(kept) - 1)
+    assert_same_numbers(rows(second), rows(first))
+    client.wait_for_workers(2, timeout=60)
+
+
+def test_command_line_sweep_with_two_workers(write_job, tmp_path: Path) -> None:
+    job = write_job(SMALL_DISK)
+    out = tmp_path / "cli"
+    command = [sys.executable, "-m", "nnm", "sweep", str(job), "--out", str(out), "--samples", "2",
+               "--mistuning", "0.01", "--seed", "1", "--workers", "2", "--no-figures"]  # fmt: skip
+    run = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "[2/2]" in run.stderr and "2 computed" in run.stdout
+    table = rows(out)
+    assert [r["replicate"] for r in table] == ["0", "1"] and all(r["status"] == "ok" for r in table)
+    # The same numbers as computed here, in this process, without Dask.
+    here = sweeps.run_sample(str(job.resolve()), sweeps.Sample(1, "mode-1-2", (), 0.01, 1), seed=1)["row"]
+    assert float(table[1]["frequency"]) == here["frequency"]
+    assert float(table[1]["localization"]) == here["localization"]
+
+    quiet = subprocess.run(command + ["--quiet"], capture_output=True, text=True, timeout=300)
+    assert quiet.returncode == 0 and quiet.stdout == "" and quiet.stderr == ""
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (["--grid", "cubic=0.1"], "expected `model.KEY`"),
+        (["--grid", "model.cubic"], "expected KEY=V1,V2"),
+        (["--grid", "model.sectors=2.5"], "sectors"),
+        (["--grid", "settings.tolerance=1e-30"], "tolerance"),
+        (["--mistuning", "-0.1", "--samples", "2"], "non-negative"),
+        (["--mistuning", "0.1"], "needs `samples` >= 1"),
+        (["--branch", "nope"], "no branch `nope`"),
+    ],
+)
+def test_bad_sweeps_are_one_line_errors_with_status_2(write_job, tmp_path: Path, arguments: list[str], message: str) -> None:
+    job = write_job(SMALL_DISK)
+    run = subprocess.run(
+        [sys.executable, "-m", "nnm", "sweep", str(job), "--out", str(tmp_path / "o"), *arguments],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 2
+    assert message in run.stderr and run.stderr.count("\n") == 1, run.stderr
+
+
+def test_mistuning_is_refused_on_other_models(write_job, tmp_path: Path) -> None:
+    job = write_job('[model]\nfamily = "duffing"\n[[branch]]\nname = "d"\nmode = 0\nenergy_max = 1.0\n')
+    with pytest.raises(ValueError, match="mistuning applies to a bladed disk"):
+        sweeps.sweep(job, tmp_path / "o", samples=2, mistuning=[0.1], progress=False)
