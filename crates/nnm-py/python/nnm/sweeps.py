@@ -18,7 +18,7 @@ mass-weighted modal assurance criterion ``MAC_j = (φ_tᵀ M φ_j)²`` (both mas
 
 Along each branch the **localization** is the share of the blades' kinetic energy, averaged
 over the period, held by the ``localization_sectors`` most energetic sectors (docs/method.md
-§16, eq. (77)): about ``k·2/N`` for a tuned standing wave, 1 when a single sector moves. A
+§16, eq. (79)): about ``k·2/N`` for a tuned standing wave, 1 when a single sector moves. A
 row gives it in the linear regime (the branch's first point), at the branch's end, its
 largest value, and ``localization_energy``, the energy at which it first exceeds
 ``LOCALIZED`` (one half).
@@ -145,7 +145,7 @@ def localization(
     model: Model, branch: Any, sectors: tuple[int, int], top: int, samples: int = MOTION_SAMPLES
 ) -> np.ndarray:
     """Per point of ``branch``: the share of the period-averaged kinetic energy of the sectors'
-    blades held by the ``top`` most energetic sectors (docs/method.md eq. (77)).
+    blades held by the ``top`` most energetic sectors (docs/method.md eq. (79)).
 
     ``sectors = (N, dofs_per_sector)`` in sector-major numbering. On the bladed disk the
     blade is dof 1 of each sector; on other cyclic models every dof of a sector counts, each

@@ -69,7 +69,7 @@ pub struct BladedDisk {
     /// `knl`
     pub cubic: f64,
     /// Blade mistuning: relative deviations `δ_i` of the blade stiffnesses, `k_i = k (1 + δ_i)`
-    /// (docs/method.md eq. (52) with `k` per sector). Empty for the tuned disk; otherwise one
+    /// (docs/method.md eqs. (52) and (77)). Empty for the tuned disk; otherwise one
     /// per sector, each above −1. A mistuned disk has no cyclic symmetry, so none is declared
     /// (its modes carry no `(n, d)` labels: its degenerate pairs split).
     pub blade_stiffness_mistuning: Vec<f64>,
