@@ -239,6 +239,8 @@ pub struct IntegrationStats {
     pub steps: usize,
     /// Steps rejected by the error control and retried smaller.
     pub rejected_steps: usize,
+    /// Of those, the steps the motion passed but its sensitivities did not (eq. (31b)).
+    pub variational_rejections: usize,
     /// Evaluations of the vector field `g(z)`.
     pub rhs_evaluations: usize,
     /// Evaluations of the tangent `A(x)` applied to a block of directions.
@@ -249,6 +251,7 @@ impl std::ops::AddAssign for IntegrationStats {
     fn add_assign(&mut self, o: Self) {
         self.steps += o.steps;
         self.rejected_steps += o.rejected_steps;
+        self.variational_rejections += o.variational_rejections;
         self.rhs_evaluations += o.rhs_evaluations;
         self.tangent_evaluations += o.tangent_evaluations;
     }
