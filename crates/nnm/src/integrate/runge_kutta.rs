@@ -70,8 +70,6 @@ struct Workspace {
     /// The two error combinations of the stages (`2n` each).
     err_a: Vec<f64>,
     err_b: Vec<f64>,
-    /// `Φ` before the sensitivity pass of a trial step, restored if its error rejects it.
-    phi_before: Vec<f64>,
     /// Error combinations of the sensitivity stages (`n·k`, interleaved).
     phi_err: Vec<f64>,
 }
@@ -228,13 +226,7 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
                 } else {
                     f64::INFINITY
                 };
-                let factor = if err.is_finite() && err > 0.0 {
-                    (SAFETY / err.powf(tab.controller_exponent)).clamp(MAX_SHRINK, MAX_GROWTH)
-                } else if err == 0.0 {
-                    MAX_GROWTH
-                } else {
-                    MAX_SHRINK
-                };
+                let factor = step_factor(err, tab.controller_exponent);
                 if err > 1.0 {
                     stats.rejected_steps += 1;
                     h *= factor.min(1.0);
@@ -258,41 +250,28 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
                 step_index += 1;
                 h
             };
-            let next = if replay.is_none() && columns > 0 {
-                self.ws.phi_before.clone_from(&phi);
-                self.finish_step(h, stride, n2, &mut phi, first_phi_ready, &mut stats);
-                let err = variational_error(
-                    self.tableau,
-                    self.tolerances.relative.max(VARIATIONAL_TOLERANCE),
-                    h,
-                    (n2 / 2, stride, columns),
-                    &self.ws.phi_before,
-                    &self.ws.k_v,
-                    &mut self.ws.phi_err,
-                );
-                let factor = if err.is_finite() && err > 0.0 {
-                    (SAFETY / err.powf(self.tableau.controller_exponent))
-                        .clamp(MAX_SHRINK, MAX_GROWTH)
-                } else if err == 0.0 {
-                    MAX_GROWTH
-                } else {
-                    MAX_SHRINK
-                };
-                if err > 1.0 {
+            let control = replay.is_none() && columns > 0;
+            let next = match self.finish_step(
+                h,
+                (stride, columns),
+                n2,
+                &mut phi,
+                first_phi_ready,
+                control,
+                &mut stats,
+            ) {
+                Ok(None) => next,
+                Ok(Some(factor)) => next.min(h * factor),
+                Err(factor) => {
                     stats.rejected_steps += 1;
                     stats.variational_rejections += 1;
-                    phi.copy_from_slice(&self.ws.phi_before);
                     h *= factor.min(1.0);
                     last_rejected = true;
-                    // Both first stages (at z, and of Φ at the restored Φ) stay valid.
+                    // Both first stages (at z, and of Φ, untouched) stay valid.
                     first_stage_ready = true;
                     first_phi_ready = true;
                     continue;
                 }
-                next.min(h * factor)
-            } else {
-                self.finish_step(h, stride, n2, &mut phi, first_phi_ready, &mut stats);
-                next
             };
             t += h;
             accepted.push(h);
@@ -340,27 +319,31 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
         })
     }
 
-    /// The sensitivity pass of an accepted step (interleaved `Φ`, module notes): stages
-    /// `K_i = A(x_i) Φ_{x,i}` at the stored motion stages, then the update of `Φ_x`, `Φ_v`.
-    /// `stride`: the padded number of directions (row length of the interleaved blocks).
+    /// The sensitivity pass of a step the motion accepted (interleaved `Φ`, module notes):
+    /// the stages `K_i = A(x_i) Φ_{x,i}` at the stored motion stages (into `ws.k_v`), then —
+    /// unless the sensitivities' own error (eq. (31b)) rejects the step, `Some(factor)`
+    /// returned with `Φ` untouched — the update of `Φ_x`, `Φ_v`. `control` says whether to
+    /// check that error; accepted, it returns `None` or the factor it proposes for the next
+    /// step. `stride`: the padded number of directions (row length of the interleaved blocks).
     #[allow(clippy::too_many_arguments)]
     fn finish_step(
         &mut self,
         h: f64,
-        stride: usize,
+        (stride, columns): (usize, usize),
         n2: usize,
         phi: &mut [f64],
         first_phi_ready: bool,
+        control: bool,
         stats: &mut IntegrationStats,
-    ) {
+    ) -> Result<Option<f64>, f64> {
         if stride == 0 {
-            return;
+            return Ok(None);
         }
         let (tab, ny) = (self.tableau, &self.nystrom);
         let ws = &mut self.ws;
         let n = n2 / 2;
         let m = n * stride;
-        let (phi_x, phi_v) = phi.split_at_mut(m);
+        let (phi_x, phi_v) = phi.split_at(m);
         let h2 = h * h;
         for i in 0..tab.c.len() {
             if i == 0 && first_phi_ready {
@@ -385,6 +368,25 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
                 .acceleration_tangent_interleaved(x, x_stage, stride, &mut rest[..m]);
             stats.tangent_evaluations += 1;
         }
+        let proposal = if control {
+            let err = variational_error(
+                ny,
+                self.tolerances.relative.max(VARIATIONAL_TOLERANCE),
+                h,
+                (n, stride, columns),
+                phi,
+                &ws.k_v,
+                &mut ws.phi_err,
+            );
+            let factor = step_factor(err, tab.controller_exponent);
+            if err > 1.0 {
+                return Err(factor);
+            }
+            Some(factor)
+        } else {
+            None
+        };
+        let (phi_x, phi_v) = phi.split_at_mut(m);
         let mut terms = Terms::new();
         terms.push(h * ny.b_sum, phi_v);
         for (l, &a) in ny.bbar.iter().enumerate() {
@@ -400,6 +402,7 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
             }
         }
         linear_combination(phi_v, None, terms.as_slice());
+        Ok(proposal)
     }
 
     /// Hairer's starting-step heuristic (Solving ODEs I, §II.4): a step whose Euler error
@@ -467,13 +470,18 @@ impl<S: MechanicalSystem + ?Sized> Integrator for RungeKutta<'_, S> {
 }
 
 /// The coefficients of the sensitivity stages in displacement form (module notes): the row
-/// sums `σ = A·1`, `ā = A²` (strictly lower), `Σb` and `bᵀA`, computed once per tableau.
+/// sums `σ = A·1`, `ā = A²` (strictly lower), `Σb` and `bᵀA`, and the error estimates'
+/// stage weights `w` with their `wᵀA` (eq. (31b)), computed once per tableau.
 #[derive(Debug)]
 struct Nystrom {
     sigma: Vec<f64>,
     abar: Vec<Vec<f64>>,
     b_sum: f64,
     bbar: Vec<f64>,
+    /// The embedded estimate (DOP853: its 5th-order one), `(w, wᵀA)`.
+    error: (Vec<f64>, Vec<f64>),
+    /// DOP853's 3rd-order estimate, `(w, wᵀA)`.
+    error_third: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 impl Nystrom {
@@ -490,12 +498,39 @@ impl Nystrom {
                 })
                 .collect()
         };
+        let with_a = |w: Vec<f64>| {
+            let wa = times_a(&w);
+            (w, wa)
+        };
+        let (error, error_third) = match &tab.error {
+            ErrorEstimate::Embedded(e) => (with_a(e.to_vec()), None),
+            ErrorEstimate::Dop853 { fifth, third } => {
+                let mut w = tab.b.to_vec();
+                for &(j, t) in third.iter() {
+                    w[j] -= t;
+                }
+                (with_a(fifth.to_vec()), Some(with_a(w)))
+            }
+        };
         Self {
             sigma: tab.a.iter().map(|row| row.iter().sum()).collect(),
             abar: tab.a.iter().map(|row| times_a(row)).collect(),
             b_sum: tab.b.iter().sum(),
             bbar: times_a(tab.b),
+            error,
+            error_third,
         }
+    }
+}
+
+/// The step-size factor an error norm proposes (eq. (31)), within `[MAX_SHRINK, MAX_GROWTH]`.
+fn step_factor(err: f64, exponent: f64) -> f64 {
+    if err.is_finite() && err > 0.0 {
+        (SAFETY / err.powf(exponent)).clamp(MAX_SHRINK, MAX_GROWTH)
+    } else if err == 0.0 {
+        MAX_GROWTH
+    } else {
+        MAX_SHRINK
     }
 }
 
@@ -508,8 +543,9 @@ impl Nystrom {
 /// relative accuracy), in Hairer's root-mean-square norm, with DOP853's blend of its 5th- and
 /// 3rd-order estimates as for the motion. `phi` is `Φ` at the start of the step;
 /// `(n, stride, columns)` its shape.
+#[allow(clippy::too_many_arguments)]
 fn variational_error(
-    tab: &Tableau,
+    ny: &Nystrom,
     relative: f64,
     h: f64,
     (n, stride, columns): (usize, usize, usize),
@@ -518,17 +554,6 @@ fn variational_error(
     scratch: &mut Vec<f64>,
 ) -> f64 {
     let m = n * stride;
-    let stages = tab.c.len();
-    let (fifth, third): (Vec<f64>, Option<Vec<f64>>) = match &tab.error {
-        ErrorEstimate::Embedded(e) => (e.to_vec(), None),
-        ErrorEstimate::Dop853 { fifth, third } => {
-            let mut w = tab.b.to_vec();
-            for &(j, t) in third.iter() {
-                w[j] -= t;
-            }
-            (fifth.to_vec(), Some(w))
-        }
-    };
     // Per direction: the largest displacement and velocity sensitivity, the scales.
     let mut size_x = vec![0.0_f64; columns];
     let mut size_v = vec![0.0_f64; columns];
@@ -540,13 +565,10 @@ fn variational_error(
         }
     }
     let scale = |size: f64| relative * if size > 0.0 { size } else { 1.0 };
-    // Σ_{i,c} (error/scale)² of one weight vector `w` on the stages.
-    let mut squared = |w: &[f64]| -> f64 {
-        let wa: Vec<f64> = (0..stages)
-            .map(|l| (l + 1..stages).map(|j| w[j] * tab.a[j][l]).sum())
-            .collect();
+    // Σ_{i,c} (error/scale)² of one estimate: stage weights `w` and `wa = wᵀa`.
+    let mut squared = |(w, wa): &(Vec<f64>, Vec<f64>)| -> f64 {
         let mut total = 0.0;
-        for (weights, factor, size) in [(&wa[..], h * h, &size_x), (w, h, &size_v)] {
+        for (weights, factor, size) in [(wa, h * h, &size_x), (w, h, &size_v)] {
             let mut terms = Terms::new();
             for (j, &wj) in weights.iter().enumerate() {
                 if wj != 0.0 {
@@ -565,11 +587,11 @@ fn variational_error(
         total
     };
     let count = (2 * n * columns) as f64;
-    match third {
-        None => (squared(&fifth) / count).sqrt(),
-        Some(w3) => {
+    match &ny.error_third {
+        None => (squared(&ny.error) / count).sqrt(),
+        Some(third) => {
             // DOP853's blend (as in `error_norm`, with the factors of h inside the sums).
-            let (e5, e3) = (squared(&fifth), squared(&w3));
+            let (e5, e3) = (squared(&ny.error), squared(third));
             let denominator = if e5 + 0.01 * e3 > 0.0 {
                 e5 + 0.01 * e3
             } else {
