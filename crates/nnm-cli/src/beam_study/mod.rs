@@ -115,8 +115,8 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
     let branch_seconds = started.elapsed().as_secs_f64();
     if !options.quiet {
         eprintln!();
+        print_summary(&outcomes);
     }
-    print_summary(&outcomes);
     if crate::interrupt::requested() {
         return Err(crate::Unfinished::Interrupted(
             "interrupted: the summary above and the branch files hold what was computed".into(),
@@ -150,11 +150,13 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
         clock.elapsed().as_secs_f64(),
         &out.join("report.md"),
     )?;
-    println!(
-        "example finished in {:.1} s; report: {}",
-        clock.elapsed().as_secs_f64(),
-        out.join("report.md").display()
-    );
+    if !options.quiet {
+        println!(
+            "example finished in {:.1} s; report: {}",
+            clock.elapsed().as_secs_f64(),
+            out.join("report.md").display()
+        );
+    }
     Ok(())
 }
 
