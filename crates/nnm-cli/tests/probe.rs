@@ -417,17 +417,16 @@ fn requested_points_are_labelled_and_quiet_is_silent() {
     assert!(stderr.contains("(at_energy)"), "{stderr}");
     assert!(!String::from_utf8_lossy(&output.stdout).is_empty());
 
-    // The examples that run a job are as quiet.
-    let example = dir.join("example");
-    let output = nnm(&[
-        "example",
-        "duffing",
-        "--out",
-        example.to_str().unwrap(),
-        "-q",
-    ]);
-    assert!(output.status.success(), "{}", stderr_of(&output));
-    assert_eq!(String::from_utf8_lossy(&output.stdout), "");
-    assert_eq!(stderr_of(&output), "");
+    // The examples are as quiet (the beam's report study too).
+    for which in [&["duffing"][..], &["cantilever-beam", "--quick"]] {
+        let example = dir.join(which[0]);
+        let mut args = vec!["example"];
+        args.extend(which);
+        args.extend(["--out", example.to_str().unwrap(), "-q"]);
+        let output = nnm(&args);
+        assert!(output.status.success(), "{args:?}: {}", stderr_of(&output));
+        assert_eq!(String::from_utf8_lossy(&output.stdout), "", "{args:?}");
+        assert_eq!(stderr_of(&output), "", "{args:?}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

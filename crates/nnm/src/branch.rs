@@ -72,7 +72,10 @@ pub struct BranchStats {
 /// A computed branch.
 #[derive(Debug, Clone)]
 pub struct Branch {
-    /// Converged points in the order of the branch, the start's first.
+    /// Converged points in the order of the branch, the start's first: the continuation's
+    /// steps, and between them the points placed on requested values (their `label` says
+    /// which, their `index` is the step's before them); the last one on the limit that
+    /// ended the branch, if one did.
     pub points: Vec<BranchPoint>,
     /// Located events, in the order of the branch.
     pub events: Vec<Event>,
@@ -92,7 +95,8 @@ pub struct Branch {
 /// `ControlFlow::Break`. A closure `FnMut(&BranchPoint) -> ControlFlow<()>` is an observer that
 /// ignores events.
 pub trait Observer {
-    /// A converged point.
+    /// A converged point: a continuation step, or a point placed exactly on a requested
+    /// value or on the limit (`label`), in the order of the branch.
     fn point(&mut self, point: &BranchPoint) -> ControlFlow<()>;
     /// A located event; it is reported before the point that follows it.
     fn event(&mut self, _event: &Event) -> ControlFlow<()> {

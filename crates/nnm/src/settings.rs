@@ -44,7 +44,8 @@ pub struct Limits {
     pub energy_max: f64,
     /// Stop once `|frequency / linear frequency - 1|` exceeds this (positive; default +∞).
     pub frequency_shift_max: f64,
-    /// Stop after this many points (default 500).
+    /// Stop after this many continuation steps (default 500; points placed on requested
+    /// values come in addition).
     pub max_points: usize,
 }
 

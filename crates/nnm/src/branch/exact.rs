@@ -96,9 +96,11 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<Shooting<'_, S>> for ValueDetec
 
     fn detect(&mut self, segment: &mut Segment<'_, Shooting<'_, S>>) -> Vec<Found> {
         // Events first, on the segment exactly as without requests.
-        let mut found: Vec<(f64, Found)> = self
-            .events
-            .detect(segment)
+        let events = self.events.detect(segment);
+        if self.requested.values.is_empty() {
+            return events.into_iter().map(Found::Event).collect();
+        }
+        let mut found: Vec<(f64, Found)> = events
             .into_iter()
             .map(|e| (e.arclength, Found::Event(e)))
             .collect();
