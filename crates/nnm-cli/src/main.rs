@@ -46,7 +46,7 @@ enum Command {
         /// Branches computed at once, at least 1 (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
-        /// Print errors only: no progress, no summary (the files hold everything).
+        /// Print errors only: no progress, and the summary only when a branch did not finish.
         #[arg(long, short)]
         quiet: bool,
     },

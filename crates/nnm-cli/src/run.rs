@@ -132,9 +132,13 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     let outcomes = compute_all(&job.structure, &modes, requests, out, threads, quiet)?;
     plot(&outcomes, &out.join("fep"), "Frequency-energy plot")?;
     let early = stopped_early(&outcomes);
-    // Quiet means errors only: what went wrong still ends in `error: ...` (below).
+    let verdict = unfinished(&outcomes, &early);
+    // Quiet means errors only: nothing on a successful run. When a branch failed, stopped
+    // early or was interrupted, the summary says which, beside the `error: ...` line.
     if !quiet {
         eprintln!();
+    }
+    if !quiet || verdict.is_err() {
         print_summary(&outcomes);
         println!(
             "wall time {:.2} s; results in {}{}",
@@ -147,7 +151,7 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
             }
         );
     }
-    unfinished(&outcomes, &early)
+    verdict
 }
 
 /// The run's verdict, most serious first: interrupted (Ctrl-C stopped or skipped a branch; one

@@ -113,8 +113,12 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
     let started = Instant::now();
     let outcomes = compute_all(structure, &modes, requests, out, None, options.quiet)?;
     let branch_seconds = started.elapsed().as_secs_f64();
+    let failed = failures(&outcomes);
     if !options.quiet {
         eprintln!();
+    }
+    // Quiet: the summary only when something went wrong (it says which branch).
+    if !options.quiet || !failed.is_empty() || crate::interrupt::requested() {
         print_summary(&outcomes);
     }
     if crate::interrupt::requested() {
@@ -123,7 +127,6 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
         )
         .into());
     }
-    let failed = failures(&outcomes);
     if !failed.is_empty() {
         bail!("branches failed: {}", failed.join("; "));
     }
