@@ -108,7 +108,9 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<Shooting<'_, S>> for ValueDetec
         let length = segment.length();
         for (request, &(label, value)) in self.requested.values.iter().enumerate() {
             let (ga, gb) = (distance(label, value, &a), distance(label, value, &b));
-            if !(ga * gb < 0.0) {
+            // A sign change (false for NaN).
+            let crosses = ga * gb < 0.0;
+            if !crosses {
                 continue;
             }
             let g = |p: &BranchPoint| distance(label, value, p);
