@@ -4,6 +4,7 @@ mod beam_study;
 mod bench;
 mod interrupt;
 mod out_dir;
+mod progress;
 mod run;
 mod study;
 
@@ -45,7 +46,7 @@ enum Command {
         /// Branches computed at once, at least 1 (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
-        /// Only print the summary, not every point.
+        /// Print errors only: no progress, and the summary only when a branch did not finish.
         #[arg(long, short)]
         quiet: bool,
     },
@@ -64,6 +65,9 @@ enum Command {
         /// Branches computed at once, at least 1 (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+        /// Print errors only: no progress, no closing line (the report holds everything).
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Benchmark table: sensitivity vs finite-difference Jacobian on the same cases, same run.
     Bench {
@@ -101,7 +105,7 @@ struct ExampleArgs {
     /// Output folder (created if missing).
     #[arg(long, value_name = "DIR")]
     out: std::path::PathBuf,
-    /// Only print the summary, not every point.
+    /// Print errors only: no progress, no summary (the files hold everything).
     #[arg(long, short)]
     quiet: bool,
     /// A first look: the bladed disk's subset of backbones without the finite-difference
@@ -211,9 +215,18 @@ fn execute(cli: Cli) -> Result<()> {
             out,
             quick,
             threads,
-        } => study::bladed_disk_study(&job, &out, &study::StudyOptions { quick, threads }),
+            quiet,
+        } => {
+            progress::set_quiet(quiet);
+            study::bladed_disk_study(&job, &out, &study::StudyOptions { quick, threads })
+        }
         Command::Bench { repeat, stiff } => bench::bench(repeat, stiff),
         Command::Example { which } => {
+            let (Example::BladedDisk(a)
+            | Example::Duffing(a)
+            | Example::TwoDof(a)
+            | Example::CantileverBeam(a)) = &which;
+            progress::set_quiet(a.quiet);
             let bladed_disk = matches!(which, Example::BladedDisk(_));
             let (name, text, args) = match which {
                 Example::CantileverBeam(a) => {
@@ -255,6 +268,6 @@ fn write_example_job(out: &Path, name: &str, text: &str) -> Result<PathBuf> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let job = out.join(format!("{name}.toml"));
     std::fs::write(&job, text).with_context(|| format!("cannot write {}", job.display()))?;
-    eprintln!("example {name}: job file written to {}", job.display());
+    progress::say!("example {name}: job file written to {}", job.display());
     Ok(job)
 }

@@ -131,22 +131,27 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     let clock = Instant::now();
     let outcomes = compute_all(&job.structure, &modes, requests, out, threads, quiet)?;
     plot(&outcomes, &out.join("fep"), "Frequency-energy plot")?;
+    let early = stopped_early(&outcomes);
+    let verdict = unfinished(&outcomes, &early);
+    // Quiet means errors only: nothing on a successful run. When a branch failed, stopped
+    // early or was interrupted, the summary says which, beside the `error: ...` line.
     if !quiet {
         eprintln!();
     }
-    print_summary(&outcomes);
-    let early = stopped_early(&outcomes);
-    println!(
-        "wall time {:.2} s; results in {}{}",
-        clock.elapsed().as_secs_f64(),
-        out.display(),
-        match early.len() {
-            0 => String::new(),
-            1 => "; 1 branch stopped before its limit".into(),
-            n => format!("; {n} branches stopped before their limits"),
-        }
-    );
-    unfinished(&outcomes, &early)
+    if !quiet || verdict.is_err() {
+        print_summary(&outcomes);
+        println!(
+            "wall time {:.2} s; results in {}{}",
+            clock.elapsed().as_secs_f64(),
+            out.display(),
+            match early.len() {
+                0 => String::new(),
+                1 => "; 1 branch stopped before its limit".into(),
+                n => format!("; {n} branches stopped before their limits"),
+            }
+        );
+    }
+    verdict
 }
 
 /// The run's verdict, most serious first: interrupted (Ctrl-C stopped or skipped a branch; one
@@ -502,6 +507,10 @@ pub fn compute_branch(
                 branch.points.len(),
                 branch.events.len(),
             );
+            // A requested value without a point is said (and kept in the JSON), not dropped.
+            for missed in &branch.missed_requests {
+                eprintln!("[{}] warning: {missed}", info.name);
+            }
             Ok(branch)
         }
         Err(e) => {
@@ -577,7 +586,7 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<&'static str>> Observer for &mut Writ
         let linear = self.info.linear_frequency_rad_s;
         self.after_write(written, || {
             format!(
-                "point {:>3}  E = {:<11.4e} f = {:.6} rad/s ({:+.3}%)  {}  |mu|max = {:.6}",
+                "point {:>3}  E = {:<11.4e} f = {:.6} rad/s ({:+.3}%)  {}  |mu|max = {:.6}{}",
                 p.index,
                 p.energy,
                 p.frequency,
@@ -587,7 +596,9 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<&'static str>> Observer for &mut Writ
                 } else {
                     "unstable"
                 },
-                p.floquet.max_modulus
+                p.floquet.max_modulus,
+                p.label
+                    .map_or(String::new(), |l| format!("  ({})", l.name()))
             )
         })?;
         match (self.extra)(p) {

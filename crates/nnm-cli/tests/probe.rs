@@ -55,6 +55,22 @@ fn limits_and_tolerances_are_refused_before_anything_is_computed() {
             "energy_start 5 must be below energy_max 1",
         ),
         (
+            "energy_max = 1.0\nat_energies = [0.5, nan]",
+            "at_energies must hold positive, finite energies, got NaN",
+        ),
+        (
+            "energy_max = 1.0\nat_energies = [-2.0]",
+            "at_energies must hold positive, finite energies, got -2",
+        ),
+        (
+            "energy_max = 1.0\nat_frequencies = [inf]",
+            "at_frequencies must hold positive, finite frequencies (rad/s), got inf",
+        ),
+        (
+            "energy_max = 1.0\nat_frequencies = [0.0]",
+            "at_frequencies must hold positive, finite frequencies (rad/s), got 0",
+        ),
+        (
             "energy_max = 1.0\ntolerance = 1e-17",
             "tolerance 1e-17 is below 1e-14, which double precision cannot meet",
         ),
@@ -343,4 +359,74 @@ fn interrupt(child: std::process::Child) -> Output {
         .unwrap();
     assert!(sent.success());
     child.wait_with_output().unwrap()
+}
+
+/// Requested energies and frequencies get points exactly on them, flagged in the CSV's `label`
+/// column (the last point, on `energy_max`, too); a value the branch cannot reach is said on
+/// stderr and kept in the JSON; and `--quiet` prints nothing at all on a successful run.
+#[test]
+fn requested_points_are_labelled_and_quiet_is_silent() {
+    let dir = scratch("requested");
+    let keys = "energy_max = 1.0\nat_energies = [0.25, 50.0]\nat_frequencies = [1.02]";
+    let path = write(&dir, "job.toml", &format!("{MODEL}{}", job("b", 0, keys)));
+    let out = dir.join("out");
+    let output = nnm(&["run", &path, "--out", out.to_str().unwrap(), "--quiet"]);
+    assert!(output.status.success(), "{}", stderr_of(&output));
+    assert_eq!(String::from_utf8_lossy(&output.stdout), "");
+    assert_eq!(stderr_of(&output), "");
+    let csv = std::fs::read_to_string(out.join("b.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (label, energy, frequency) = (column("label"), column("energy"), column("frequency_rad_s"));
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let labelled =
+        |name: &str| -> Vec<&Vec<&str>> { rows.iter().filter(|r| r[label] == name).collect() };
+    let value = |r: &Vec<&str>, k: usize| r[k].parse::<f64>().unwrap();
+    let at_energy = labelled("at_energy");
+    assert_eq!(at_energy.len(), 1);
+    assert!((value(at_energy[0], energy) / 0.25 - 1.0).abs() <= 1e-10);
+    let at_frequency = labelled("at_frequency");
+    assert_eq!(at_frequency.len(), 1);
+    assert!((value(at_frequency[0], frequency) / 1.02 - 1.0).abs() <= 1e-10);
+    let last = rows.last().unwrap();
+    assert_eq!(last[label], "energy_max");
+    assert!((value(last, energy) - 1.0).abs() <= 1e-10);
+    assert_eq!(labelled("").len() + 3, rows.len());
+    let json = std::fs::read_to_string(out.join("b.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let missed = json["missed_requests"].as_array().unwrap();
+    assert_eq!(missed.len(), 1);
+    assert_eq!(missed[0]["value"], 50.0);
+    assert_eq!(
+        json["points"].as_array().unwrap().last().unwrap()["label"],
+        "energy_max"
+    );
+
+    // Not quiet: progress on stderr, the unreachable value in a warning, the summary on stdout.
+    let output = nnm(&["run", &path, "--out", out.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", stderr_of(&output));
+    let stderr = stderr_of(&output);
+    assert!(
+        stderr.contains("[b] warning: at_energies value 50 has no point: beyond energy_max = 1"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("(at_energy)"), "{stderr}");
+    assert!(!String::from_utf8_lossy(&output.stdout).is_empty());
+
+    // The examples are as quiet (the beam's report study too).
+    for which in [&["duffing"][..], &["cantilever-beam", "--quick"]] {
+        let example = dir.join(which[0]);
+        let mut args = vec!["example"];
+        args.extend(which);
+        args.extend(["--out", example.to_str().unwrap(), "-q"]);
+        let output = nnm(&args);
+        assert!(output.status.success(), "{args:?}: {}", stderr_of(&output));
+        assert_eq!(String::from_utf8_lossy(&output.stdout), "", "{args:?}");
+        assert_eq!(stderr_of(&output), "", "{args:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

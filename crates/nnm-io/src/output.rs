@@ -123,6 +123,10 @@ struct PointRecord<'a> {
     unstable_pairs: usize,
     /// `dE/ds` along the branch (changes sign at a fold).
     energy_slope: f64,
+    /// `at_energy`, `at_frequency`, `energy_max` or `frequency_shift_max` for a point placed
+    /// exactly on a value; absent for a continuation step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    label: Option<nnm::shooting::PointLabel>,
 }
 
 impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
@@ -149,6 +153,7 @@ impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
             reciprocity_defect: p.floquet.reciprocity_defect,
             unstable_pairs: p.floquet.unstable_pairs,
             energy_slope: p.energy_slope,
+            label: p.label,
         }
     }
 }
@@ -206,6 +211,9 @@ struct Document<'a> {
     /// they come).
     #[serde(skip_serializing_if = "Option::is_none")]
     events: Option<Vec<EventRecord<'a>>>,
+    /// Requested values (`at_energies`, `at_frequencies`) without a point, and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    missed_requests: Option<&'a [nnm::branch::MissedRequest]>,
     points: Vec<PointRecord<'a>>,
 }
 
@@ -226,7 +234,7 @@ impl std::fmt::Display for Number {
 }
 
 /// Columns of `<name>.csv`, in order.
-pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs";
+pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs,label";
 
 /// Columns of `<name>.events.csv`, in order.
 pub const EVENTS_CSV_HEADER: &str = "index,type,energy,frequency_rad_s,period_s,multiplier_re,multiplier_im,multiplier_modulus,multiplicity,after_point,arclength_uncertainty,converged";
@@ -261,6 +269,7 @@ impl BranchWriter {
             stats: None,
             wall_time_s: None,
             events: None,
+            missed_requests: None,
             points: vec![],
         };
         let text = serde_json::to_string(&document).expect("serialisable");
@@ -310,7 +319,7 @@ impl BranchWriter {
     pub fn write_point(&mut self, p: &BranchPoint) -> Result<(), OutputError> {
         writeln!(
             self.csv,
-            "{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
             p.index,
             Number(p.energy),
             Number(p.frequency),
@@ -321,7 +330,8 @@ impl BranchWriter {
             p.iterations,
             Number(p.step),
             Number(p.full_period_residual),
-            p.floquet.unstable_pairs
+            p.floquet.unstable_pairs,
+            p.label.map_or("", |l| l.name())
         )
         .map_err(output_error(&self.csv_path))?;
         let record = serde_json::to_string(&PointRecord::from(p)).expect("serialisable");
@@ -344,6 +354,7 @@ impl BranchWriter {
             stats: None,
             wall_time_s: None,
             events: None,
+            missed_requests: None,
             points: vec![],
         };
         self.replace_json(&document)
@@ -378,6 +389,8 @@ impl BranchWriter {
                     .map(|(k, e)| EventRecord::new(k, e))
                     .collect(),
             ),
+            missed_requests: (!branch.missed_requests.is_empty())
+                .then_some(&branch.missed_requests[..]),
             points: branch.points.iter().map(PointRecord::from).collect(),
         };
         self.replace_json(&document)

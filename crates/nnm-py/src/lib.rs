@@ -579,6 +579,7 @@ impl NativeModel {
                     stop: StopReason::StepTooSmall(String::new()),
                     stats: Default::default(),
                     omega: start.omega,
+                    missed_requests: Vec::new(),
                 };
                 branch_dict(py, &empty, &out)?;
                 out.set_item("stop", e.to_string())?;
@@ -755,6 +756,20 @@ fn branch_dict<'py>(py: Python<'py>, branch: &Branch, out: &Bound<'py, PyDict>) 
     }
     let stable: Vec<bool> = points.iter().map(|p| p.floquet.stable).collect();
     out.set_item("stable", stable.into_pyarray(py))?;
+    let labels: Vec<&str> = points
+        .iter()
+        .map(|p| p.label.map_or("", |l| l.name()))
+        .collect();
+    out.set_item("label", labels)?;
+    let missed = PyList::empty(py);
+    for m in &branch.missed_requests {
+        let d = PyDict::new(py);
+        d.set_item("label", m.label.name())?;
+        d.set_item("value", m.value)?;
+        d.set_item("why", &m.why)?;
+        missed.append(d)?;
+    }
+    out.set_item("missed_requests", missed)?;
     let width = points.first().map_or(0, |p| p.z0.len());
     let state0 = Array2::from_shape_fn((points.len(), width), |(k, i)| points[k].z0[i]);
     out.set_item("state0", state0.into_pyarray(py))?;

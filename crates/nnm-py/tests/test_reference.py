@@ -44,6 +44,29 @@ def test_duffing_backbone_has_the_exact_elliptic_period(w0: float, alpha: float)
     np.testing.assert_allclose(np.abs(branch.multipliers), 1.0, atol=1e-6)
 
 
+def test_requested_energies_and_frequencies_get_exact_points() -> None:
+    """``at_energies`` / ``at_frequencies`` (docs/method.md eq. (26b)): a point on each value,
+    labelled, with the exact elliptic period there; a value beyond the limit is reported."""
+    w0, alpha = 1.0, 1.0
+    branch = nnm.backbone(
+        nnm.duffing(natural_frequency=w0, cubic=alpha),
+        0,
+        energy_max=5.0,
+        tolerance=1e-10,
+        at_energies=[0.5, 2.0, 50.0],
+        at_frequencies=[1.3],
+    )
+    assert branch.stop_kind == "energy-max"
+    for label, values, column in [("at_energy", [0.5, 2.0], branch.energy), ("at_frequency", [1.3], branch.frequency)]:
+        on = branch.label == label
+        np.testing.assert_allclose(column[on], values, rtol=1e-10)
+    exact = duffing_period(w0, alpha, branch.state0[:, 0])
+    assert np.max(np.abs(branch.period / exact - 1.0)) < 1e-8
+    assert branch.label[-1] == "energy_max" and abs(branch.energy[-1] / 5.0 - 1.0) < 1e-10
+    assert [(m["label"], m["value"]) for m in branch.missed_requests] == [("at_energy", 50.0)]
+    assert list(branch.to_pandas()["label"][branch.label != ""]) == list(branch.label[branch.label != ""])
+
+
 # Table 1 of the paper: natural frequencies (rad/s) of the 30-sector bladed disk by nodal
 # circles n (rows) and nodal diameters d (columns 0..15), three decimals.
 TABLE_1 = np.array(

@@ -51,7 +51,7 @@ def test_to_pandas_has_the_columns_of_the_csv_file(two_dof_branch) -> None:
     assert isinstance(frame, pandas.DataFrame) and len(frame) == len(two_dof_branch)
     assert list(frame.columns) == [
         "index", "energy", "frequency_rad_s", "period_s", "stable", "max_floquet_modulus",
-        "relative_residual", "iterations", "step", "full_period_residual", "unstable_pairs",
+        "relative_residual", "iterations", "step", "full_period_residual", "unstable_pairs", "label",
     ]
     np.testing.assert_array_equal(frame["energy"], two_dof_branch.energy)
 

@@ -8,12 +8,18 @@
 use std::ops::ControlFlow;
 
 use crate::bifurcation::{BifurcationDetector, Event};
-use crate::continuation::{Continuation, ContinuationError, Detail, Item, Segment, Solution};
+use crate::continuation::{Continuation, ContinuationError, Item, Segment, Solution};
 use crate::model::MechanicalSystem;
 use crate::settings::{Limits, Settings};
-use crate::shooting::{BranchPoint, EvaluationProgress, Shooting, ShootingStats, Start};
+use crate::shooting::{
+    BranchPoint, EvaluationProgress, PointLabel, Shooting, ShootingStats, Start,
+};
 
+mod exact;
 mod hint;
+
+pub use exact::MissedRequest;
+use exact::{Found, Requested, ValueDetector};
 
 /// Why a branch ended.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -66,7 +72,10 @@ pub struct BranchStats {
 /// A computed branch.
 #[derive(Debug, Clone)]
 pub struct Branch {
-    /// Converged points in the order of the branch, the start's first.
+    /// Converged points in the order of the branch, the start's first: the continuation's
+    /// steps, and between them the points placed on requested values (their `label` says
+    /// which, their `index` is the step's before them); the last one on the limit that
+    /// ended the branch, if one did.
     pub points: Vec<BranchPoint>,
     /// Located events, in the order of the branch.
     pub events: Vec<Event>,
@@ -76,6 +85,9 @@ pub struct Branch {
     pub stats: BranchStats,
     /// Linear angular frequency of the starting mode.
     pub omega: f64,
+    /// Requested values (`at_energies`, `at_frequencies`) without a point on the branch, and
+    /// why (docs/method.md eq. (26b)).
+    pub missed_requests: Vec<MissedRequest>,
 }
 
 /// Receives a branch's results as soon as they are found, so that a caller can write them out
@@ -83,7 +95,8 @@ pub struct Branch {
 /// `ControlFlow::Break`. A closure `FnMut(&BranchPoint) -> ControlFlow<()>` is an observer that
 /// ignores events.
 pub trait Observer {
-    /// A converged point.
+    /// A converged point: a continuation step, or a point placed exactly on a requested
+    /// value or on the limit (`label`), in the order of the branch.
     fn point(&mut self, point: &BranchPoint) -> ControlFlow<()>;
     /// A located event; it is reported before the point that follows it.
     fn event(&mut self, _event: &Event) -> ControlFlow<()> {
@@ -130,10 +143,20 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     }));
     let half_period = shooting.half_period();
     let (u0, pin) = start.first_guess(&shooting);
-    let detector = settings.stability.events.then_some(BifurcationDetector);
+    let requested = Requested::new(settings);
+    let detector = ValueDetector {
+        events: settings.stability.events.then_some(BifurcationDetector),
+        requested: requested.clone(),
+    };
     let mut points: Vec<BranchPoint> = Vec::new();
     let mut events: Vec<Event> = Vec::new();
+    let mut missed: Vec<MissedRequest> = Vec::new();
+    let mut hit = vec![false; requested.values.len()];
     let limits = &settings.limits;
+    // Continuation, the limits and `max_points` go by the regular points; requested points
+    // are inserted between them (branch/exact.rs says why).
+    let mut regular: Option<BranchPoint> = None;
+    let mut regular_points = 0;
     let mut beyond: Option<BranchPoint> = None;
     let mut continuation =
         Continuation::new(&mut shooting, u0, &pin, &settings.continuation, detector)?;
@@ -152,23 +175,44 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
             None => break StopReason::MaxPoints,
         };
         match item {
-            Item::Event(event) => {
+            Item::Event(Found::Event(event)) => {
                 let flow = observer.borrow_mut().event(&event);
                 events.push(event);
                 if flow.is_break() {
                     break StopReason::Interrupted;
                 }
             }
+            Item::Event(Found::Exact { point, request }) => {
+                // On the last segment, a requested point past the limit is not on the branch
+                // (one on the limit itself is kept, and then ends it).
+                if passed_limit(limits, start.omega, &point)
+                    .is_some_and(|(_, g)| g > LIMIT_TOLERANCE)
+                {
+                    continue;
+                }
+                hit[request] = true;
+                let flow = observer.borrow_mut().point(&point);
+                points.push(point);
+                if flow.is_break() {
+                    break StopReason::Interrupted;
+                }
+            }
+            Item::Event(Found::Failed { request, why }) => {
+                let (label, value) = requested.values[request];
+                missed.push(MissedRequest { label, value, why });
+            }
             Item::Point(point) => {
                 // A point past a limit is replaced by the point exactly on it (below).
                 if let Some((reason, _)) = passed_limit(limits, start.omega, &point)
-                    && !points.is_empty()
+                    && regular.is_some()
                 {
                     beyond = Some(point);
                     break reason;
                 }
                 let flow = observer.borrow_mut().point(&point);
                 let (energy, frequency) = (point.energy, point.frequency);
+                regular = Some(point.clone());
+                regular_points += 1;
                 points.push(point);
                 if flow.is_break() {
                     break StopReason::Interrupted;
@@ -176,7 +220,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                     break StopReason::EnergyMax;
                 } else if (frequency / start.omega - 1.0).abs() > limits.frequency_shift_max {
                     break StopReason::FrequencyShiftMax;
-                } else if points.len() >= limits.max_points {
+                } else if regular_points >= limits.max_points {
                     break StopReason::MaxPoints;
                 }
             }
@@ -184,15 +228,31 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     };
     let mut counters = continuation.stats();
     drop(continuation);
-    if let (Some(next), Some(previous)) = (beyond, points.last()) {
-        let (exact, iterations) =
-            point_on_limit(&mut shooting, settings, start.omega, previous, &next);
-        counters.newton_iterations += iterations;
-        let last = exact.unwrap_or(next);
-        // The branch stops here whatever the observer answers.
-        let _ = observer.borrow_mut().point(&last);
-        points.push(last);
+    if let (Some(next), Some(previous)) = (beyond, regular.as_ref()) {
+        // A requested point may already lie on the limit (a request equal to it).
+        let on_limit = points
+            .last()
+            .and_then(|p| limit_distance(limits, start.omega, &stop, p))
+            .is_some_and(|g| g.abs() <= LIMIT_TOLERANCE);
+        if !on_limit {
+            let (exact, iterations) =
+                point_on_limit(&mut shooting, settings, start.omega, previous, &next);
+            counters.newton_iterations += iterations;
+            let last = exact.unwrap_or(next);
+            // The branch stops here whatever the observer answers.
+            let _ = observer.borrow_mut().point(&last);
+            points.push(last);
+        }
     }
+    missed.extend(unreached(
+        &requested,
+        &hit,
+        &missed,
+        &points,
+        settings,
+        start.omega,
+        &stop,
+    ));
     let stats = BranchStats {
         points: points.len(),
         events: events.len(),
@@ -207,7 +267,59 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
         stop,
         stats,
         omega: start.omega,
+        missed_requests: missed,
     })
+}
+
+/// The requested values that got no point and were not already reported, each with why:
+/// beyond a limit, or outside the range of energies (frequencies) the branch covered.
+fn unreached(
+    requested: &Requested,
+    hit: &[bool],
+    reported: &[MissedRequest],
+    points: &[BranchPoint],
+    settings: &Settings,
+    omega: f64,
+    stop: &StopReason,
+) -> Vec<MissedRequest> {
+    let range = |f: fn(&BranchPoint) -> f64| {
+        points
+            .iter()
+            .map(f)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            })
+    };
+    let (e_lo, e_hi) = range(|p| p.energy);
+    let (w_lo, w_hi) = range(|p| p.frequency);
+    let limits = &settings.limits;
+    let shift = limits.frequency_shift_max;
+    requested
+        .values
+        .iter()
+        .enumerate()
+        .filter(|&(k, &(label, value))| {
+            !hit[k] && !reported.iter().any(|m| m.label == label && m.value == value)
+        })
+        .map(|(_, &(label, value))| {
+            let why = match label {
+                PointLabel::AtFrequency if (value / omega - 1.0).abs() > shift => format!(
+                    "beyond frequency_shift_max = {shift} (|{value}/{omega} - 1| = {:.4})",
+                    (value / omega - 1.0).abs()
+                ),
+                PointLabel::AtFrequency => format!(
+                    "outside the frequencies the branch covers, {w_lo:.6} to {w_hi:.6} rad/s (it stopped: {stop})"
+                ),
+                _ if value > limits.energy_max => {
+                    format!("beyond energy_max = {}", limits.energy_max)
+                }
+                _ => format!(
+                    "outside the energies the branch covers, {e_lo:.4e} to {e_hi:.4e} (it stopped: {stop})"
+                ),
+            };
+            MissedRequest { label, value, why }
+        })
+        .collect()
 }
 
 /// The limit `point` has passed, if any, with the signed distance to it `g` (negative before
@@ -222,6 +334,21 @@ fn passed_limit(limits: &Limits, omega: f64, point: &BranchPoint) -> Option<(Sto
     ]
     .into_iter()
     .find(|(_, g)| *g > 0.0)
+}
+
+/// The signed distance of `point` to the limit that ended the branch with `stop`, if a limit
+/// did.
+fn limit_distance(
+    limits: &Limits,
+    omega: f64,
+    stop: &StopReason,
+    point: &BranchPoint,
+) -> Option<f64> {
+    match stop {
+        StopReason::EnergyMax => Some(energy_distance(limits, point)),
+        StopReason::FrequencyShiftMax => Some(frequency_distance(limits, omega, point)),
+        _ => None,
+    }
 }
 
 fn energy_distance(limits: &Limits, point: &BranchPoint) -> f64 {
@@ -261,40 +388,21 @@ fn point_on_limit<S: MechanicalSystem + ?Sized>(
     };
     let (a, b) = (solution(previous), solution(next));
     let mut segment = Segment::new(shooting, (&a, previous), (&b, next), &settings.continuation);
-    let (mut s0, mut g0) = (0.0, g(previous));
-    let (mut s1, mut g1) = (segment.length(), g(next));
+    let (g0, g1) = (g(previous), g(next));
     let mut exact = None;
     if g0 < 0.0 && g1 > 0.0 {
-        let mut last_side = 0;
-        for _ in 0..40 {
-            let s = (s0 * g1 - s1 * g0) / (g1 - g0);
-            let Ok(trial) = segment.point_at(s, Detail::Light, 0.1) else {
-                break;
-            };
-            let gs = g(&trial);
-            if gs.abs() <= LIMIT_TOLERANCE {
-                exact = segment.point_at(s, Detail::Full, 0.1).ok().map(|mut p| {
-                    p.index = next.index;
-                    p.step = s;
-                    p
+        let length = segment.length();
+        exact = exact::locate_value(&mut segment, g, (0.0, g0), (length, g1))
+            .ok()
+            .map(|(s, mut p)| {
+                p.index = next.index;
+                p.step = s;
+                p.label = Some(match reason {
+                    StopReason::EnergyMax => PointLabel::EnergyMax,
+                    _ => PointLabel::FrequencyShiftMax,
                 });
-                break;
-            }
-            // Illinois: halve the stale end's value when the same end is kept twice.
-            if gs < 0.0 {
-                (s0, g0) = (s, gs);
-                if last_side == -1 {
-                    g1 *= 0.5;
-                }
-                last_side = -1;
-            } else {
-                (s1, g1) = (s, gs);
-                if last_side == 1 {
-                    g0 *= 0.5;
-                }
-                last_side = 1;
-            }
-        }
+                p
+            });
     }
     let iterations = segment.newton_iterations();
     (exact, iterations)

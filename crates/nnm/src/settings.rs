@@ -16,6 +16,9 @@ pub struct Settings {
     /// Where the branch stops (docs/method.md eq. (26)).
     #[serde(flatten)]
     pub limits: Limits,
+    /// Points placed exactly at given energies and frequencies (docs/method.md eq. (26b)).
+    #[serde(flatten)]
+    pub requests: Requests,
     /// Corrector tolerance and step control (docs/method.md §5).
     #[serde(flatten)]
     pub continuation: ContinuationSettings,
@@ -41,8 +44,23 @@ pub struct Limits {
     pub energy_max: f64,
     /// Stop once `|frequency / linear frequency - 1|` exceeds this (positive; default +∞).
     pub frequency_shift_max: f64,
-    /// Stop after this many points (default 500).
+    /// Stop after this many continuation steps (default 500; points placed on requested
+    /// values come in addition).
     pub max_points: usize,
+}
+
+/// Points a branch must contain exactly: wherever the branch crosses one of these values
+/// between two of its points, the point on the value is located (to `|x/x* − 1| ≤`
+/// [`crate::branch::LIMIT_TOLERANCE`]) and inserted, labelled, between them (docs/method.md
+/// eq. (26b)). Values the branch never reaches are reported in
+/// [`crate::Branch::missed_requests`].
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Requests {
+    /// Total energies (positive; default none).
+    pub at_energies: Vec<f64>,
+    /// Angular frequencies `2π/T`, rad/s (positive; default none).
+    pub at_frequencies: Vec<f64>,
 }
 
 /// Pseudo-arclength continuation (docs/method.md §5).
@@ -198,6 +216,8 @@ impl Settings {
         "energy_max",
         "frequency_shift_max",
         "max_points",
+        "at_energies",
+        "at_frequencies",
         "tolerance",
         "initial_step",
         "min_step",
@@ -275,6 +295,18 @@ impl Settings {
         ] {
             if !(v > 0.0) {
                 return fail(format!("{name} must be positive, got {v}"));
+            }
+        }
+        for (name, values, what) in [
+            ("at_energies", &self.requests.at_energies, "energies"),
+            (
+                "at_frequencies",
+                &self.requests.at_frequencies,
+                "frequencies (rad/s)",
+            ),
+        ] {
+            if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+                return fail(format!("{name} must hold positive, finite {what}, got {v}"));
             }
         }
         if self.limits.max_points == 0 || c.max_iterations == 0 {

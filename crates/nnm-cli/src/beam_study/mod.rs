@@ -113,17 +113,20 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
     let started = Instant::now();
     let outcomes = compute_all(structure, &modes, requests, out, None, options.quiet)?;
     let branch_seconds = started.elapsed().as_secs_f64();
+    let failed = failures(&outcomes);
     if !options.quiet {
         eprintln!();
     }
-    print_summary(&outcomes);
+    // Quiet: the summary only when something went wrong (it says which branch).
+    if !options.quiet || !failed.is_empty() || crate::interrupt::requested() {
+        print_summary(&outcomes);
+    }
     if crate::interrupt::requested() {
         return Err(crate::Unfinished::Interrupted(
             "interrupted: the summary above and the branch files hold what was computed".into(),
         )
         .into());
     }
-    let failed = failures(&outcomes);
     if !failed.is_empty() {
         bail!("branches failed: {}", failed.join("; "));
     }
@@ -150,11 +153,13 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
         clock.elapsed().as_secs_f64(),
         &out.join("report.md"),
     )?;
-    println!(
-        "example finished in {:.1} s; report: {}",
-        clock.elapsed().as_secs_f64(),
-        out.join("report.md").display()
-    );
+    if !options.quiet {
+        println!(
+            "example finished in {:.1} s; report: {}",
+            clock.elapsed().as_secs_f64(),
+            out.join("report.md").display()
+        );
+    }
     Ok(())
 }
 

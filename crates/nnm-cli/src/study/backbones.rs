@@ -2,6 +2,7 @@
 //! what the later sections read off a computed branch (its frequency at a given energy, where
 //! it turns back in energy). Numbers only; nothing here writes a report or a figure.
 
+use crate::progress::say;
 use std::ops::ControlFlow;
 use std::path::Path;
 use std::sync::Mutex;
@@ -100,7 +101,7 @@ pub(super) fn compute(
     create_dir(&backbone_dir)?;
     // The pool `compute_all` builds has this many threads (rayon's default: one per core).
     let threads = options.threads.unwrap_or_else(rayon::current_num_threads);
-    eprintln!(
+    say!(
         "study: {} backbones on {}",
         jobs.len(),
         threads_text(threads)

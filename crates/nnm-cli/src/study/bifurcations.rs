@@ -3,6 +3,7 @@
 //! point of (1,5), a branch point made double by the degenerate pair (cos and sin waves), with
 //! what the new motions are made of. Numbers only.
 
+use crate::progress::say;
 use std::path::Path;
 use std::sync::Mutex;
 
@@ -266,7 +267,7 @@ fn switch_at_first_branch_point<'a>(
         kind: event.kind.name().into(),
         phase: phase.into(),
     });
-    eprintln!("study: switching at the (1,5) branch point ...");
+    say!("study: switching at the (1,5) branch point ...");
     let switched = compute_branch(
         structure,
         &switch.start,

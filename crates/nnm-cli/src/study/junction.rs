@@ -3,6 +3,7 @@
 //! where a (1,12) Floquet multiplier passes exp(±2πi/3) — period tripling, the bifurcation the
 //! tongue ends at. Numbers only.
 
+use crate::progress::say;
 use std::f64::consts::PI;
 use std::ops::ControlFlow;
 use std::path::Path;
@@ -46,7 +47,7 @@ pub(super) fn check(
     out: &Path,
 ) -> Result<JunctionCheck> {
     let (e_junction, f_junction) = tongue.junction();
-    eprintln!("study: the (1,12) backbone near the junction ...");
+    say!("study: the (1,12) backbone near the junction ...");
     let job = BranchJob {
         name: "mode-1-12-fine".into(),
         mode: "1,12".into(),

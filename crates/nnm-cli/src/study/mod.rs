@@ -10,6 +10,7 @@
 //! nnm-plot) and `report` / `report_tongue` (Markdown) only present them. This module runs the
 //! sections in the report's order, each computed and then written.
 
+use crate::progress::say;
 use std::path::Path;
 use std::time::Instant;
 
@@ -122,7 +123,7 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
     if options.quick {
         report.cost_comparison_skipped();
     } else {
-        eprintln!("study: the tongue again with the finite-difference Jacobian (slow) ...");
+        say!("study: the tongue again with the finite-difference Jacobian (slow) ...");
         let fd_out = out.join("finite-difference");
         let fd = section(
             &mut report,
@@ -135,11 +136,13 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
 
     report.wall_time(clock.elapsed().as_secs_f64());
     report.write(&out.join("report.md"))?;
-    println!(
-        "study finished in {:.1} s; report: {}",
-        clock.elapsed().as_secs_f64(),
-        out.join("report.md").display()
-    );
+    if !crate::progress::quiet() {
+        println!(
+            "study finished in {:.1} s; report: {}",
+            clock.elapsed().as_secs_f64(),
+            out.join("report.md").display()
+        );
+    }
     Ok(())
 }
 

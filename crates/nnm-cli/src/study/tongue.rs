@@ -3,6 +3,7 @@
 //! (1,12) family at a third of the period), and the motions at representative points. Numbers
 //! only.
 
+use crate::progress::say;
 use std::f64::consts::PI;
 use std::ops::ControlFlow;
 use std::path::Path;
@@ -217,7 +218,7 @@ pub(super) fn continue_tongue(
         JacobianMethod::Sensitivity => "sensitivity",
         JacobianMethod::FiniteDifference => "finite differences",
     };
-    eprintln!("study: the (0,6) tongue ({label}) ...");
+    say!("study: the (0,6) tongue ({label}) ...");
     let started = Instant::now();
     // Time spent on the harmonic analysis of each point, left out of the continuation's cost.
     let mut analysis_seconds = 0.0;
@@ -251,7 +252,7 @@ pub(super) fn continue_tongue(
         }
         points.push(next);
         if points.len() % 20 == 0 {
-            eprintln!(
+            say!(
                 "study: tongue ({label}) point {}: E = {:.4e}, f = {:.6}, A3/A1 = {:.3}",
                 points.len(),
                 p.energy,

@@ -76,6 +76,42 @@ fn settings_section_gives_defaults_that_branches_override() {
     );
 }
 
+/// `at_energies` / `at_frequencies` are lists (integers read as numbers), given in
+/// `[settings]` or per branch (a branch's list replaces the section's, as any key does).
+#[test]
+fn requested_values_are_read_as_lists() {
+    let job = parse(
+        r#"
+        [model]
+        family = "two-dof"
+        [settings]
+        energy_max = 5.0
+        at_energies = [1, 2.5]
+        [[branch]]
+        name = "a"
+        mode = 0
+        [[branch]]
+        name = "b"
+        mode = 1
+        at_energies = [3.0]
+        at_frequencies = [1.8]
+        "#,
+    )
+    .unwrap();
+    let requests = |k: usize| &job.branches[k].settings.requests;
+    assert_eq!(requests(0).at_energies, [1.0, 2.5]);
+    assert!(requests(0).at_frequencies.is_empty());
+    assert_eq!(requests(1).at_energies, [3.0]);
+    assert_eq!(requests(1).at_frequencies, [1.8]);
+    let e = error(
+        "[model]\nfamily = \"two-dof\"\n[[branch]]\nname = \"a\"\nmode = 0\nenergy_max = 1.0\nat_energies = [0.5, -1.0]",
+    );
+    assert!(
+        e.contains("at_energies must hold positive, finite energies, got -1"),
+        "{e}"
+    );
+}
+
 #[test]
 fn general_model_with_dense_rows_and_elements() {
     let job = parse(

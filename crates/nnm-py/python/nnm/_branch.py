@@ -62,6 +62,7 @@ _CSV_COLUMNS = [
     ("step", "step"),
     ("full_period_residual", "full_period_residual"),
     ("unstable_pairs", "unstable_pairs"),
+    ("label", "label"),
 ]
 
 
@@ -73,7 +74,10 @@ class Branch:
     ``[x0; v0]`` of each periodic motion), ``stable``, ``multipliers`` (points × 2n complex
     Floquet multipliers, the two trivial ones at +1 last), ``max_floquet_modulus``,
     ``unstable_pairs``, ``relative_residual``, ``full_period_residual``, ``iterations``,
-    ``step``, ``energy_slope``. Also ``events`` (list of :class:`Event`), ``stop`` (why it
+    ``step``, ``energy_slope``, ``label`` (``""`` for a continuation step; ``"at_energy"`` or
+    ``"at_frequency"`` for a point placed exactly on a requested value, ``"energy_max"`` or
+    ``"frequency_shift_max"`` for the last point, on the limit). Also ``missed_requests``
+    (requested values without a point: dicts of ``label``, ``value`` and ``why``), ``events`` (list of :class:`Event`), ``stop`` (why it
     ended, in words) and ``stop_kind`` (``"energy-max"``, ``"frequency-shift-max"``,
     ``"max-points"``, ``"callback"``, ``"interrupted"``, ``"step-too-small"`` or
     ``"first-point"``), ``linear_frequency`` (of the starting mode), the starting ``mode``
@@ -98,6 +102,8 @@ class Branch:
     step: np.ndarray
     energy_slope: np.ndarray
     index: np.ndarray
+    label: np.ndarray
+    missed_requests: list[dict[str, Any]]
     events: list[Event]
     stop: str
     stop_kind: str
@@ -126,6 +132,7 @@ class Branch:
         n = model.dofs
         if self.state0.shape[0] == 0:
             self.state0 = self.state0.reshape(0, 2 * n)
+        self.label = np.array(self.label, dtype=object)
         self.events = [Event(**e) for e in events]
 
     def __len__(self) -> int:
@@ -238,9 +245,11 @@ def backbone(
     (``tolerance``, ``initial_step``, ``min_step``, ``max_step``, ``max_iterations``,
     ``target_iterations``, ``max_turn_angle``, ``energy_start``, ``symmetry``, ``phase``,
     ``jacobian``, ``half_period``, ``integrator``, ``integration_factor``,
-    ``stability_tolerance``, ``events``; README "Job files"). ``branch=NAME`` instead runs a
-    ``[[branch]]`` of the job file the model came from, with its settings (from ``mode``
-    instead of the branch's own when both are given: what a sweep does on a mistuned disk).
+    ``stability_tolerance``, ``events``, and ``at_energies`` / ``at_frequencies``: lists of
+    values (rad/s for frequencies) that get points exactly on them, ``label`` says which;
+    README "Job files"). ``branch=NAME`` instead runs a ``[[branch]]`` of the job file the
+    model came from, with its settings (from ``mode`` instead of the branch's own when both
+    are given: what a sweep does on a mistuned disk).
 
     The computation runs without the GIL. Ctrl-C stops it between points (raising
     ``KeyboardInterrupt``); ``callback(index, energy, frequency, stable)`` is called after

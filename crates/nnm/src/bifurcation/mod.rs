@@ -361,6 +361,7 @@ mod tests {
             step: 0.0,
             unknowns: vec![],
             tangent: vec![],
+            label: None,
         }
     }
 

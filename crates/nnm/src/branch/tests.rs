@@ -2,7 +2,7 @@ use super::*;
 use crate::model::{Structure, duffing};
 use crate::modes::linear_modes;
 use crate::reference::{duffing_amplitude, duffing_period};
-use crate::shooting::{JacobianMethod, PhaseCondition};
+use crate::shooting::{JacobianMethod, PhaseCondition, PointLabel};
 
 fn backbone(structure: &Structure, mode: usize, settings: &Settings) -> Branch {
     let modes = linear_modes(structure).unwrap();
@@ -339,4 +339,190 @@ fn limits_are_met_exactly() {
     assert!((shift - 0.3).abs() <= LIMIT_TOLERANCE, "shift {shift}");
     let exact = duffing_period(w0, alpha, duffing_amplitude(w0, alpha, last.energy));
     assert!((last.period - exact).abs() < 1e-8 * exact);
+}
+
+/// Requested energies and frequencies (docs/method.md eq. (26b)) get points exactly on them,
+/// checked against the exact elliptic period of the Duffing oscillator; each is a converged
+/// point with its stability, inserted in branch order, and the regular points are those of
+/// the same run without requests, bit for bit. The `energy_max` limit is met exactly too.
+#[test]
+fn requested_points_are_exact_on_duffing() {
+    let (w0, alpha) = (1.0, 1.0);
+    let structure = duffing(w0, alpha).unwrap();
+    let mut plain = Settings::default();
+    plain.continuation.tolerance = 1e-10;
+    plain.limits.energy_max = 5.0;
+    let mut settings = plain.clone();
+    let energies = [0.05, 0.5, 2.0, 4.0];
+    let frequencies = [1.05, 1.2, 1.4];
+    settings.requests.at_energies = energies.to_vec();
+    settings.requests.at_frequencies = frequencies.to_vec();
+    let branch = backbone(&structure, 0, &settings);
+    let reference = backbone(&structure, 0, &plain);
+    assert_eq!(branch.stop, StopReason::EnergyMax);
+    assert!(
+        branch.missed_requests.is_empty(),
+        "{:?}",
+        branch.missed_requests
+    );
+    let period_error = |p: &BranchPoint| {
+        let exact = duffing_period(w0, alpha, duffing_amplitude(w0, alpha, p.energy));
+        (p.period - exact).abs() / exact
+    };
+    let (mut worst_value, mut worst_period) = (0.0_f64, 0.0_f64);
+    for (label, values) in [
+        (PointLabel::AtEnergy, &energies[..]),
+        (PointLabel::AtFrequency, &frequencies[..]),
+    ] {
+        for &value in values {
+            let on: Vec<&BranchPoint> = branch
+                .points
+                .iter()
+                .filter(|p| p.label == Some(label))
+                .filter(|p| (exact::distance(label, value, p)).abs() <= LIMIT_TOLERANCE)
+                .collect();
+            assert_eq!(on.len(), 1, "{label:?} {value}: {} points", on.len());
+            let p = on[0];
+            worst_value = worst_value.max(exact::distance(label, value, p).abs());
+            worst_period = worst_period.max(period_error(p));
+            assert!(p.relative_residual < settings.continuation.tolerance);
+            assert!(!p.floquet.multipliers.is_empty() && p.floquet.stable);
+            assert!(p.full_period_residual.is_finite());
+        }
+    }
+    eprintln!(
+        "requested points: worst |x/x* - 1| {worst_value:.1e}, period error {worst_period:.1e}"
+    );
+    assert!(worst_period < 1e-8, "period error {worst_period:.2e}");
+    // Seven requested points and the one on the limit, in order along the branch.
+    let labelled = branch.points.iter().filter(|p| p.label.is_some()).count();
+    assert_eq!(labelled, energies.len() + frequencies.len() + 1);
+    assert!(branch.points.windows(2).all(|w| w[0].energy < w[1].energy));
+    let last = branch.points.last().unwrap();
+    assert_eq!(last.label, Some(PointLabel::EnergyMax));
+    assert!((last.energy / 5.0 - 1.0).abs() <= LIMIT_TOLERANCE);
+    assert!(period_error(last) < 1e-8);
+    // The continuation itself is untouched: the same regular points.
+    let regular = |b: &Branch| -> Vec<(usize, f64)> {
+        b.points
+            .iter()
+            .filter(|p| p.label.is_none())
+            .map(|p| (p.index, p.energy))
+            .collect()
+    };
+    assert_eq!(regular(&branch), regular(&reference));
+}
+
+/// A requested point inserted beside events neither creates nor hides one: on the two-DOF
+/// in-phase branch (a fold and branch points on its tongue), the events with requests between
+/// and around them are those without, and the requested points carry their stability.
+#[test]
+fn requested_points_leave_events_alone() {
+    use crate::model::two_dof;
+    let structure = two_dof(0.5).unwrap();
+    let mut plain = Settings::default();
+    plain.limits.energy_max = 100.0;
+    let reference = backbone(&structure, 0, &plain);
+    assert!(!reference.events.is_empty());
+    let mut settings = plain.clone();
+    // Each event's energy, and values just either side of it.
+    settings.requests.at_energies = reference
+        .events
+        .iter()
+        .flat_map(|e| [e.point.energy * 0.999, e.point.energy * 1.001])
+        .collect();
+    let branch = backbone(&structure, 0, &settings);
+    let summary = |b: &Branch| -> Vec<(String, usize, f64)> {
+        b.events
+            .iter()
+            .map(|e| (e.kind.name().to_string(), e.after, e.point.energy))
+            .collect()
+    };
+    assert_eq!(summary(&branch), summary(&reference));
+    let requested: Vec<&BranchPoint> = branch
+        .points
+        .iter()
+        .filter(|p| p.label == Some(PointLabel::AtEnergy))
+        .collect();
+    assert!(requested.len() >= settings.requests.at_energies.len());
+    assert!(requested.iter().all(|p| !p.floquet.multipliers.is_empty()));
+}
+
+/// Requested values the branch never reaches are reported with the reason, not dropped.
+#[test]
+fn unreachable_requests_are_reported() {
+    let structure = duffing(1.0, 1.0).unwrap();
+    let mut settings = Settings::default();
+    settings.limits.energy_max = 1.0;
+    settings.requests.at_energies = vec![1e-12, 0.5, 3.0];
+    settings.requests.at_frequencies = vec![0.5, 1.1];
+    settings.limits.frequency_shift_max = 0.3;
+    let branch = backbone(&structure, 0, &settings);
+    let missed: Vec<(PointLabel, f64)> = branch
+        .missed_requests
+        .iter()
+        .map(|m| (m.label, m.value))
+        .collect();
+    assert_eq!(
+        missed,
+        [
+            (PointLabel::AtEnergy, 1e-12),
+            (PointLabel::AtEnergy, 3.0),
+            (PointLabel::AtFrequency, 0.5)
+        ]
+    );
+    let text: Vec<String> = branch
+        .missed_requests
+        .iter()
+        .map(|m| m.to_string())
+        .collect();
+    assert!(text[0].contains("outside the energies"), "{}", text[0]);
+    assert!(text[1].contains("beyond energy_max"), "{}", text[1]);
+    assert!(
+        text[2].contains("beyond frequency_shift_max"),
+        "{}",
+        text[2]
+    );
+    for label in [PointLabel::AtEnergy, PointLabel::AtFrequency] {
+        assert_eq!(
+            branch
+                .points
+                .iter()
+                .filter(|p| p.label == Some(label))
+                .count(),
+            1
+        );
+    }
+}
+
+/// A request equal to the limit gives one point, on both.
+#[test]
+fn a_request_on_the_limit_is_one_point() {
+    let structure = duffing(1.0, 1.0).unwrap();
+    let mut settings = Settings::default();
+    settings.limits.energy_max = 2.0;
+    settings.requests.at_energies = vec![2.0];
+    let branch = backbone(&structure, 0, &settings);
+    assert!(branch.missed_requests.is_empty());
+    let last = branch.points.last().unwrap();
+    assert!((last.energy / 2.0 - 1.0).abs() <= LIMIT_TOLERANCE);
+    assert!(branch.points.iter().rev().skip(1).all(|p| p.energy < 2.0));
+}
+
+/// Requested values must be positive and finite: a one-line message naming the key.
+#[test]
+fn requested_values_are_validated() {
+    for (energies, frequencies, key) in [
+        (vec![1.0, f64::NAN], vec![], "at_energies"),
+        (vec![-1.0], vec![], "at_energies"),
+        (vec![], vec![f64::INFINITY], "at_frequencies"),
+        (vec![], vec![0.0], "at_frequencies"),
+    ] {
+        let mut settings = Settings::default();
+        settings.requests.at_energies = energies;
+        settings.requests.at_frequencies = frequencies;
+        let e = settings.validate().unwrap_err().to_string();
+        assert!(e.contains(key) && e.contains("positive, finite"), "{e}");
+        assert!(!e.contains('\n'));
+    }
 }

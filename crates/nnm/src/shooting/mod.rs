@@ -25,7 +25,7 @@ mod point;
 mod start;
 
 pub use matrix_free::MatrixFreeJacobian;
-pub use point::BranchPoint;
+pub use point::{BranchPoint, PointLabel};
 pub use start::{Start, StartError};
 
 use crate::continuation::Linearization;

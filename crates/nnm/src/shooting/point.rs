@@ -43,6 +43,37 @@ pub struct BranchPoint {
     pub unknowns: Vec<f64>,
     /// Unit tangent `du/ds`, oriented along the branch (docs/method.md eq. (20)).
     pub tangent: Vec<f64>,
+    /// Why the point is where it is, when not a regular continuation step: placed exactly
+    /// on a requested value or on the limit that ended the branch (docs/method.md eqs.
+    /// (26a)–(26b)).
+    pub label: Option<PointLabel>,
+}
+
+/// What put a point exactly where it is (the `label` column of `<branch>.csv`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PointLabel {
+    /// On a value of `at_energies`.
+    AtEnergy,
+    /// On a value of `at_frequencies`.
+    AtFrequency,
+    /// On `energy_max`, ending the branch.
+    EnergyMax,
+    /// On `frequency_shift_max`, ending the branch.
+    FrequencyShiftMax,
+}
+
+impl PointLabel {
+    /// The label as written in the output (`at_energy`, `at_frequency`, `energy_max`,
+    /// `frequency_shift_max`).
+    pub fn name(self) -> &'static str {
+        match self {
+            PointLabel::AtEnergy => "at_energy",
+            PointLabel::AtFrequency => "at_frequency",
+            PointLabel::EnergyMax => "energy_max",
+            PointLabel::FrequencyShiftMax => "frequency_shift_max",
+        }
+    }
 }
 
 impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
@@ -86,6 +117,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
             step: solution.step,
             unknowns: solution.u.clone(),
             tangent: solution.tangent.clone(),
+            label: None,
         };
         if detail == Detail::Light {
             return Ok(point);
