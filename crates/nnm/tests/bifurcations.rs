@@ -389,3 +389,98 @@ fn period_doubling_is_located_and_switched() {
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
+
+/// The events of a branch, as `(kind, energy)`, at several largest steps and tolerances.
+fn event_lists(
+    structure: &Structure,
+    start: &Start,
+    base: &Settings,
+) -> Vec<((f64, f64), Vec<(EventKind, f64, bool)>)> {
+    let mut out = Vec::new();
+    for max_step in [base.continuation.max_step, 0.05, 0.02] {
+        for tolerance in [1e-8, 1e-10] {
+            let mut settings = base.clone();
+            settings.continuation.max_step = max_step;
+            settings.continuation.tolerance = tolerance;
+            let b = branch(structure, start, &settings);
+            let events = b
+                .events
+                .iter()
+                .map(|e| (e.kind, e.point.energy, e.converged))
+                .collect::<Vec<_>>();
+            eprintln!("max_step {max_step}, tolerance {tolerance:e}: {events:?}");
+            out.push(((max_step, tolerance), events));
+        }
+    }
+    out
+}
+
+/// Whatever the largest step (the default 0.25, 0.05, 0.02) and tolerance (1e-8, 1e-10), the
+/// same events at the same energies, each located (`converged`): the bladed disk's (1,14)
+/// family to E = 9 — three Krein collisions, two folds of its S-shaped turn and a collision
+/// between them (the default steps used to put the second collision at E = 5.90 instead of
+/// 6.46, and to add collisions that finer steps do not find) — and the two-DOF in-phase
+/// family to E = 100. The energies agree within 1e-6 (relative) across settings; the (1,14)
+/// ones are those of the paper's study at fine steps.
+#[test]
+fn events_do_not_depend_on_the_step_or_the_tolerance() {
+    let disk = BladedDisk::default().build().unwrap();
+    let modes = linear_modes(&disk).unwrap();
+    let (index, _) = find_mode(&modes, "1,14", Some(StandingWave::Cos)).unwrap();
+    let start = Start::from_linear_mode(&disk, &modes, index, None).unwrap();
+    let mut settings = Settings::default();
+    settings.limits.energy_max = 9.0;
+    let expected = [
+        (EventKind::NeimarkSacker, 3.335098),
+        (EventKind::NeimarkSacker, 6.463673),
+        (EventKind::NeimarkSacker, 8.534340),
+        (EventKind::Fold, 8.653833),
+        (EventKind::Fold, 8.513630),
+        (EventKind::NeimarkSacker, 8.521180),
+    ];
+    let lists = event_lists(&disk, &start, &settings);
+    for (setting, events) in &lists {
+        assert_eq!(events.len(), expected.len(), "{setting:?}: {events:?}");
+        for ((kind, energy, converged), (want, at)) in events.iter().zip(expected) {
+            assert_eq!(*kind, want, "{setting:?}");
+            assert!(
+                relative(*energy, at) < 1e-6,
+                "{setting:?}: {kind:?} at {energy}, not {at}"
+            );
+            assert!(converged, "{setting:?}: {kind:?} at {energy} not located");
+        }
+    }
+    let reference = &lists[0].1;
+    for (setting, events) in &lists[1..] {
+        for (a, b) in events.iter().zip(reference) {
+            assert!(
+                relative(a.1, b.1) < 1e-6,
+                "{setting:?}: {} against {}",
+                a.1,
+                b.1
+            );
+        }
+    }
+
+    let structure = two_dof(0.5).unwrap();
+    let modes = linear_modes(&structure).unwrap();
+    let start = Start::from_linear_mode(&structure, &modes, 0, None).unwrap();
+    let mut settings = Settings::default();
+    settings.limits.energy_max = 100.0;
+    let lists = event_lists(&structure, &start, &settings);
+    let reference = &lists[0].1;
+    assert!(!reference.is_empty());
+    for (setting, events) in &lists {
+        assert_eq!(events.len(), reference.len(), "{setting:?}: {events:?}");
+        for (a, b) in events.iter().zip(reference) {
+            assert_eq!(a.0, b.0, "{setting:?}");
+            assert!(a.2, "{setting:?}: {a:?} not located");
+            assert!(
+                relative(a.1, b.1) < 1e-6,
+                "{setting:?}: {} against {}",
+                a.1,
+                b.1
+            );
+        }
+    }
+}

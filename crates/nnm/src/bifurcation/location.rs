@@ -2,7 +2,7 @@
 //! calls [`BifurcationDetector`] with each new segment, and the detector corrects trial points
 //! on it through [`Segment::point_at`].
 
-use super::{Crossing, Event, detect, multiplicity, test_function};
+use super::{Crossing, Event, detect, multiplicity, test_function, unexplained};
 use crate::continuation::{Detail, EventDetector, Segment};
 use crate::model::MechanicalSystem;
 use crate::shooting::{BranchPoint, Shooting};
@@ -27,6 +27,11 @@ const EVENT_ARCLENGTH_TOLERANCE: f64 = 1e-8;
 const EVENT_TRIAL_TOLERANCE_FACTOR: f64 = 1e-2;
 /// How many times a step is halved to separate crossings that no test function brackets.
 const REFINE_DEPTH: usize = 2;
+/// How many times a step is halved where the multipliers' pattern changes more than its
+/// detected crossings explain (`unexplained`): events whose count changes cancel within one
+/// step are separated by then (the (1,14) backbone's fold and Krein collision 0.0076 apart in
+/// energy, on a step spanning both).
+const UNEXPLAINED_DEPTH: usize = 5;
 /// Trials allowed to the secant location (it converges in 5–12 on a simple root).
 const SECANT_TRIALS: usize = 20;
 /// Relative arclength bracket to which an event without a usable test function is placed by
@@ -34,6 +39,10 @@ const SECANT_TRIALS: usize = 20;
 const EVENT_BRACKET_TOLERANCE: f64 = 1e-6;
 /// Trials allowed to the bisection fallback.
 const BISECTION_TRIALS: usize = 24;
+/// Distance, as a fraction of the step, on either side of a located event at which its test
+/// function must have opposite signs (the check of docs/method.md §8, "Verification"), and by
+/// which a bracket found by bisection is widened before the test function is tried on it.
+const VERIFICATION_WINDOW: f64 = 1e-3;
 
 /// Detects the events between the ends of `segment` and locates each one; every trial is a
 /// point at arclength `s` from the first end ([`Segment::point_at`]).
@@ -72,7 +81,9 @@ fn locate_events<S: MechanicalSystem + ?Sized>(
     while let Some((a, b, depth)) = pending.pop() {
         let crossings = detect(&a.1, &b.1);
         let unbracketed = crossings.iter().any(|&c| !brackets(c, &a.1, &b.1));
-        if unbracketed && depth < REFINE_DEPTH {
+        let refine = (unbracketed && depth < REFINE_DEPTH)
+            || (unexplained(&a.1, &b.1, &crossings) && depth < UNEXPLAINED_DEPTH);
+        if refine {
             let mid = 0.5 * (a.0 + b.0);
             if let Ok(m) = trial_point(mid, true) {
                 refinements += 1;
@@ -88,29 +99,65 @@ fn locate_events<S: MechanicalSystem + ?Sized>(
     for ((sa, a), (sb, b), crossing) in work {
         let value = |p: &BranchPoint| test_function(crossing, p).map(|(f, _)| f);
         let width = sb - sa;
-        let result = match (value(&a), value(&b)) {
+        let window = VERIFICATION_WINDOW * width;
+        let mut trials = 0;
+        let trial = &mut trial_point;
+        let check = Check {
+            origin: sa,
+            width,
+            window,
+            tolerance,
+            crossing,
+        };
+        let direct = match (value(&a), value(&b)) {
             (Some(f0), Some(f1)) if f0 * f1 < 0.0 => {
-                illinois(width, f0, f1, tolerance, SECANT_TRIALS, |x| {
-                    let p = trial_point(sa + x, crossing.needs_floquet())?;
-                    let f = value(&p).ok_or("the critical pair vanished")?;
-                    Ok((f, p))
-                })
+                check.locate(trial, (0.0, f0), (width, f1), &mut trials)
             }
-            // The counts changed but no test function brackets a zero even after refinement:
-            // bisect on which side's pattern a trial shares. Placed, not located: a coarser
-            // bracket is enough.
-            _ => bisect(width, EVENT_BRACKET_TOLERANCE * q, BISECTION_TRIALS, |x| {
-                let p = trial_point(sa + x, true)?;
-                let past = detect(&a, &p).iter().any(|c| c.kind() == crossing.kind());
-                Ok((past, p))
-            }),
+            _ => None,
+        };
+        let result = match direct {
+            Some(found) => Some(found),
+            None => {
+                // No verified root on the whole step: bisect on which side's pattern of
+                // multipliers a trial shares, then try the test function again on that
+                // narrow bracket, widened by the window.
+                let placed = bisect(width, EVENT_BRACKET_TOLERANCE * q, BISECTION_TRIALS, |x| {
+                    let p = trial(sa + x, true)?;
+                    let past = detect(&a, &p).iter().any(|c| c.kind() == crossing.kind());
+                    Ok((past, p))
+                });
+                match placed {
+                    Err(_) => None,
+                    Ok(placed) => {
+                        trials += placed.trials;
+                        let lo = (placed.arclength - placed.uncertainty - window).max(0.0);
+                        let hi = (placed.arclength + window).min(width);
+                        let ends = check.probe(trial, lo, &mut trials).and_then(|f_lo| {
+                            check.probe(trial, hi, &mut trials).map(|f_hi| (f_lo, f_hi))
+                        });
+                        match ends {
+                            Ok((Some(f_lo), Some(f_hi))) if f_lo * f_hi < 0.0 => check
+                                .locate(trial, (lo, f_lo), (hi, f_hi), &mut trials)
+                                .or(Some(placed)),
+                            // The pattern changes there, but the test function keeps its
+                            // sign across: not this kind of event (two real pairs merging
+                            // off the circle while a fold's pair returns to it, say).
+                            Ok((Some(_), Some(_))) => {
+                                location_steps += trials;
+                                continue;
+                            }
+                            _ => Some(placed),
+                        }
+                    }
+                }
+            }
         };
         let located_point = match result {
-            Ok(found) => {
+            Some(found) => {
                 let summary = (
                     sa + found.arclength,
                     found.uncertainty,
-                    found.trials,
+                    trials,
                     found.converged,
                 );
                 if crossing.needs_floquet() {
@@ -120,12 +167,12 @@ fn locate_events<S: MechanicalSystem + ?Sized>(
                     trial_point(summary.0, true).map(|p| (p, summary))
                 }
             }
-            Err(why) => Err(why),
+            None => Err(String::new()),
         };
         // A detected event whose location failed is still reported, at the end of its
         // interval, with the whole interval as its uncertainty.
         let (point, (arclength, uncertainty, trials, converged)) =
-            located_point.unwrap_or_else(|_| (b.clone(), (sb, width.abs(), 0, false)));
+            located_point.unwrap_or_else(|_| (b.clone(), (sb, width.abs(), trials, false)));
         location_steps += trials;
         located.push((crossing, arclength, uncertainty, trials, converged, point));
     }
@@ -239,10 +286,83 @@ pub(crate) fn bisect<T>(
     Err("no trial was made".into())
 }
 
+/// One crossing's location on a step: its test function probed and its root checked.
+struct Check {
+    /// Arclength of the step's first end.
+    origin: f64,
+    width: f64,
+    window: f64,
+    tolerance: f64,
+    crossing: Crossing,
+}
+
+impl Check {
+    /// The test function at `x` from the step's first end (`None`: not defined there).
+    fn probe(
+        &self,
+        trial: &mut impl FnMut(f64, bool) -> Result<BranchPoint, String>,
+        x: f64,
+        trials: &mut usize,
+    ) -> Result<Option<f64>, String> {
+        *trials += 1;
+        let p = trial(self.origin + x, true)?;
+        Ok(test_function(self.crossing, &p).map(|(f, _)| f))
+    }
+
+    /// A root of the test function between `lo` and `hi` (values of opposite signs) by
+    /// Illinois, kept only if the test function has opposite signs a window either side of
+    /// it: a zero the function touches without crossing (two invariants meeting on the circle
+    /// and parting again), or a zero of a function patched from different pairs across a
+    /// long step, is no event.
+    fn locate(
+        &self,
+        trial: &mut impl FnMut(f64, bool) -> Result<BranchPoint, String>,
+        (lo, f_lo): (f64, f64),
+        (hi, f_hi): (f64, f64),
+        trials: &mut usize,
+    ) -> Option<Located<BranchPoint>> {
+        let crossing = self.crossing;
+        let found = illinois(hi - lo, f_lo, f_hi, self.tolerance, SECANT_TRIALS, |x| {
+            let p = trial(self.origin + lo + x, crossing.needs_floquet())?;
+            let f = test_function(crossing, &p)
+                .ok_or("the critical pair vanished")?
+                .0;
+            Ok((f, p))
+        })
+        .ok()?;
+        *trials += found.trials;
+        if !found.converged {
+            return None;
+        }
+        let at = lo + found.arclength;
+        let before = self
+            .probe(trial, (at - self.window).max(0.0), trials)
+            .ok()??;
+        let after = self
+            .probe(trial, (at + self.window).min(self.width), trials)
+            .ok()??;
+        // A simple root: the function crosses linearly, so its values a window either side
+        // are nearly opposite; a jump (the nearest pairs changing identity) is not.
+        let ratio = -after / before;
+        (ratio > 1.0 / 3.0 && ratio < 3.0).then_some(found.with_arclength(at))
+    }
+}
+
 pub(crate) struct Located<T> {
     pub arclength: f64,
     pub payload: T,
     pub uncertainty: f64,
     pub trials: usize,
     pub converged: bool,
+}
+
+impl<T> Located<T> {
+    /// The same result at arclength `s` (a location on a sub-interval, moved to the step's
+    /// own origin).
+    fn with_arclength(self, s: f64) -> Self {
+        Self {
+            arclength: s,
+            ..self
+        }
+    }
 }
