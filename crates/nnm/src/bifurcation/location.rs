@@ -40,7 +40,7 @@ const EVENT_BRACKET_TOLERANCE: f64 = 1e-6;
 /// Trials allowed to the bisection fallback.
 const BISECTION_TRIALS: usize = 24;
 /// Distance, as a fraction of the step, on either side of a located event at which its test
-/// function must have opposite signs (the check of docs/method.md §8, "Verification"), and by
+/// function must have opposite signs (docs/method.md eq. (43a), "Verification"), and by
 /// which a bracket found by bisection is widened before the test function is tried on it.
 const VERIFICATION_WINDOW: f64 = 1e-3;
 
