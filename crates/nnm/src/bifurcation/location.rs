@@ -217,6 +217,7 @@ pub(crate) fn illinois<T>(
     mut f: impl FnMut(f64) -> Result<(f64, T), String>,
 ) -> Result<Located<T>, String> {
     let (mut a, mut fa, mut b, mut fb) = (0.0, f0, h, fh);
+    let mut history = vec![(0.0, f0), (h, fh)];
     for trial in 1..=max_trials {
         let mut s = b - fb * (b - a) / (fb - fa);
         let (lo, hi) = (a.min(b), a.max(b));
@@ -224,6 +225,7 @@ pub(crate) fn illinois<T>(
             s = 0.5 * (a + b);
         }
         let (fs, payload) = f(s)?;
+        history.push((s, fs));
         let moved = (s - b).abs();
         if fs * fb < 0.0 {
             (a, fa) = (b, fb);
@@ -243,6 +245,7 @@ pub(crate) fn illinois<T>(
                 // It must also have stopped on its tolerance, not on the trial limit.
                 converged: fs.abs() <= 1e-3 * f0.abs().max(fh.abs())
                     && (fs == 0.0 || width < tolerance || moved < tolerance),
+                history,
             });
         }
     }
@@ -280,6 +283,7 @@ pub(crate) fn bisect<T>(
                 // Placed where the pattern of the multipliers changes (to the bracket), not
                 // at a zero of a test function.
                 converged: false,
+                history: Vec::new(),
             });
         }
     }
@@ -335,15 +339,35 @@ impl Check {
             return None;
         }
         let at = lo + found.arclength;
-        let before = self
-            .probe(trial, (at - self.window).max(0.0), trials)
-            .ok()??;
-        let after = self
-            .probe(trial, (at + self.window).min(self.width), trials)
-            .ok()??;
-        // A simple root: the function crosses linearly, so its values a window either side
-        // are nearly opposite; a jump (the nearest pairs changing identity) is not.
-        let ratio = -after / before;
+        // A simple root: the function crosses it linearly, so the slopes `f / (s − s*)` seen
+        // from either side agree; a jump (the nearest pairs changing identity) or a zero
+        // touched without crossing does not. The secant's own trials nearest the root on
+        // each side serve when they are within the window (most often); else two probes.
+        let root = found.arclength;
+        let side = |sign: f64| {
+            found
+                .history
+                .iter()
+                .filter(|(s, _)| {
+                    let d = (s - root) * sign;
+                    d > 10.0 * self.tolerance && d <= self.window
+                })
+                .min_by(|x, y| (x.0 - root).abs().total_cmp(&(y.0 - root).abs()))
+                .map(|&(s, f)| f / (s - root))
+        };
+        let slopes = match (side(-1.0), side(1.0)) {
+            (Some(before), Some(after)) => (before, after),
+            _ => {
+                let before = self
+                    .probe(trial, (at - self.window).max(0.0), trials)
+                    .ok()??;
+                let after = self
+                    .probe(trial, (at + self.window).min(self.width), trials)
+                    .ok()??;
+                (-before / self.window, after / self.window)
+            }
+        };
+        let ratio = slopes.1 / slopes.0;
         (ratio > 1.0 / 3.0 && ratio < 3.0).then_some(found.with_arclength(at))
     }
 }
@@ -354,6 +378,8 @@ pub(crate) struct Located<T> {
     pub uncertainty: f64,
     pub trials: usize,
     pub converged: bool,
+    /// The `(arclength, value)` of every evaluation (Illinois: the ends, then each trial).
+    pub history: Vec<(f64, f64)>,
 }
 
 impl<T> Located<T> {

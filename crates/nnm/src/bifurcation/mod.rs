@@ -228,7 +228,7 @@ pub(crate) fn detect(a: &BranchPoint, b: &BranchPoint) -> Vec<Crossing> {
 /// Whether the change of the multipliers' pattern between two points is more than the
 /// `crossings` detected there account for: each pair through `±1` moves one pair between the
 /// circle and the real axis, each Krein collision two pairs between the circle and the
-/// complex plane (per quadruplet). More means several changes in one step, some of which may
+/// complex plane (per quadruplet); twins by symmetry count once. More means several changes in one step, some of which may
 /// cancel in the counts (a quadruplet born from two real pairs and dissolving onto the circle
 /// within one step, beside a fold), so the step must be refined before locating.
 pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossing]) -> bool {
@@ -238,9 +238,23 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
         PairKind::NegativeReal,
         PairKind::Complex,
     ];
+    // Pairs double by symmetry (twins, equal invariants) move together as one crossing.
+    let distinct = |f: &Floquet, kind: PairKind| {
+        let mut seen: Vec<Complex> = Vec::new();
+        for p in f.pairs.iter().filter(|p| p.kind == kind) {
+            let s = p.trace();
+            let twin = seen.iter().any(|t| {
+                (t.0 - s.0).hypot(t.1.abs() - s.1.abs()) < TWIN_INVARIANT * s.0.abs().max(1.0)
+            });
+            if !twin {
+                seen.push(s);
+            }
+        }
+        seen.len()
+    };
     let moved: usize = kinds
         .iter()
-        .map(|&k| count(&a.floquet, k).abs_diff(count(&b.floquet, k)))
+        .map(|&k| distinct(&a.floquet, k).abs_diff(distinct(&b.floquet, k)))
         .sum();
     let accounted: usize = crossings
         .iter()
