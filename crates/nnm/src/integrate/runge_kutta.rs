@@ -72,6 +72,8 @@ struct Workspace {
     err_b: Vec<f64>,
     /// Error combinations of the sensitivity stages (`n·k`, interleaved).
     phi_err: Vec<f64>,
+    /// Per direction, the largest displacement then velocity sensitivity (`2k`).
+    phi_size: Vec<f64>,
 }
 
 /// Floor of the sensitivities' relative tolerance in their error control (eq. (31b)). The
@@ -376,7 +378,7 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
                 (n, stride, columns),
                 phi,
                 &ws.k_v,
-                &mut ws.phi_err,
+                (&mut ws.phi_err, &mut ws.phi_size),
             );
             let factor = step_factor(err, tab.controller_exponent);
             if err > 1.0 {
@@ -542,7 +544,8 @@ fn step_factor(err: f64, exponent: f64) -> f64 {
 /// likewise for velocities (directions of very different sizes are each held to the same
 /// relative accuracy), in Hairer's root-mean-square norm, with DOP853's blend of its 5th- and
 /// 3rd-order estimates as for the motion. `phi` is `Φ` at the start of the step;
-/// `(n, stride, columns)` its shape.
+/// `(n, stride, columns)` its shape; `scratch` two work buffers of the integrator's (no
+/// allocation per step).
 #[allow(clippy::too_many_arguments)]
 fn variational_error(
     ny: &Nystrom,
@@ -551,13 +554,14 @@ fn variational_error(
     (n, stride, columns): (usize, usize, usize),
     phi: &[f64],
     k_v: &[f64],
-    scratch: &mut Vec<f64>,
+    (scratch, sizes): (&mut Vec<f64>, &mut Vec<f64>),
 ) -> f64 {
     let m = n * stride;
     // Per direction: the largest displacement and velocity sensitivity, the scales.
-    let mut size_x = vec![0.0_f64; columns];
-    let mut size_v = vec![0.0_f64; columns];
-    for (half, size) in [(&phi[..m], &mut size_x), (&phi[m..2 * m], &mut size_v)] {
+    sizes.clear();
+    sizes.resize(2 * columns, 0.0);
+    let (size_x, size_v) = sizes.split_at_mut(columns);
+    for (half, size) in [(&phi[..m], &mut *size_x), (&phi[m..2 * m], &mut *size_v)] {
         for row in half.chunks_exact(stride) {
             for (s, &v) in size.iter_mut().zip(&row[..columns]) {
                 *s = s.max(v.abs());
@@ -568,7 +572,7 @@ fn variational_error(
     // Σ_{i,c} (error/scale)² of one estimate: stage weights `w` and `wa = wᵀa`.
     let mut squared = |(w, wa): &(Vec<f64>, Vec<f64>)| -> f64 {
         let mut total = 0.0;
-        for (weights, factor, size) in [(wa, h * h, &size_x), (w, h, &size_v)] {
+        for (weights, factor, size) in [(wa, h * h, &*size_x), (w, h, &*size_v)] {
             let mut terms = Terms::new();
             for (j, &wj) in weights.iter().enumerate() {
                 if wj != 0.0 {
