@@ -40,6 +40,8 @@ def test_events_and_stability(two_dof_branch) -> None:
         assert e.kind in ("fold", "branch-point", "period-doubling", "neimark-sacker")
         assert branch.energy[e.after_point] <= e.energy or e.kind == "fold"
         assert e.state0.shape == (4,)
+        # An event's repr is one short line, without the state.
+        assert "state0" not in repr(e) and e.kind in repr(e)
     # Unstable points have a multiplier off the unit circle, stable ones none.
     off_circle = (np.abs(branch.multipliers) > 1 + 1e-4).any(axis=1)
     assert np.array_equal(off_circle, ~branch.stable)

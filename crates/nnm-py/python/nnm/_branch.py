@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, NamedTuple
 
 import numpy as np
@@ -37,7 +37,8 @@ class Event:
     after_point: int
     arclength_uncertainty: float
     converged: bool
-    state0: np.ndarray
+    # Left out of the repr: a list of events would print every state in full.
+    state0: np.ndarray = field(repr=False)
 
 
 class Motion(NamedTuple):
