@@ -508,3 +508,32 @@ fn cantilever_beam_example_writes_its_study() {
         assert!(report.contains(text), "report.md lacks {text}");
     }
 }
+
+/// A branch integrated by radau5 on two DOF with ω = 1 and √401 (its fast pair damped to
+/// |μ| ≈ 0.99) says so in a warning line; the same branch by dop853 (exact multipliers, the
+/// sensitivities' error controlled) does not.
+#[test]
+fn damped_multipliers_are_said() {
+    let dir = scratch("damped");
+    for (integrator, warned) in [("radau5", true), ("dop853", false)] {
+        let job = write(
+            &dir,
+            &format!("{integrator}.toml"),
+            &format!(
+                "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[201.0, -200.0], [-200.0, 201.0]]\n\
+                 [[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\ncoefficient = 0.1\n\
+                 [[branch]]\nname = \"slow\"\nmode = 0\nfrequency_shift_max = 1e-4\nmax_points = 3\n\
+                 integrator = \"{integrator}\"\n"
+            ),
+        );
+        let out = dir.join(integrator);
+        let output = nnm(&["run", &job, "--out", out.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{stderr}");
+        assert_eq!(
+            stderr.contains("lack reciprocal partners"),
+            warned,
+            "{integrator}: {stderr}"
+        );
+    }
+}
