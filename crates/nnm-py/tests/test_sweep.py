@@ -141,7 +141,7 @@ def test_sweep_is_deterministic_resumes_and_survives_a_lost_worker(write_job, tm
     assert (done.computed, done.skipped, done.failed) == (6, 0, 0)
     reference = rows(first)
     assert len(reference) == 6 and {r["model.cubic"] for r in reference} == {"0.1", "0.2"}
-    assert all(Path(first, "samples").glob("*.csv"))
+    assert len(list(Path(first, "samples").glob("*.csv"))) == 6  # one branch file a sample
     assert (first / "statistics.csv").exists() and (first / "localization.png").exists()
     # The cubic stiffness hardens the branch: the same frequency shift at lower energy.
     by_cubic = {c: np.median([float(r["energy"]) for r in reference if r["model.cubic"] == c]) for c in ("0.1", "0.2")}

@@ -51,7 +51,6 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 import numpy as np
 
 from ._branch import backbone
-from ._errors import ContinuationError
 from ._model import Model, modes
 
 if TYPE_CHECKING:
@@ -180,6 +179,15 @@ def first_crossing(energy: np.ndarray, share: np.ndarray, level: float = LOCALIZ
     return float(np.exp(np.log(energy[k - 1]) + t * (np.log(energy[k]) - np.log(energy[k - 1]))))
 
 
+def _branch_start(model: Model, name: str) -> tuple[str, str | None]:
+    """The starting mode (as written) and pattern of the job's branch `name`; a branch
+    switched from an event cannot be swept."""
+    start = model._native.branch_mode(name)
+    if start is None:
+        raise ValueError(f"branch `{name}` starts from an event of another branch: a sweep follows branches started from modes")
+    return start
+
+
 def default_top(sectors: int) -> int:
     """Sectors counted by the localization unless told: a tenth of them, at least one."""
     return max(1, math.ceil(sectors / 10))
@@ -196,10 +204,7 @@ def run_sample(
     started = time.perf_counter()
     overrides = dict(sample.parameters)
     tuned = Model.from_job(job, overrides)
-    start = tuned._native.branch_mode(sample.branch)
-    if start is None:
-        raise ValueError(f"branch `{sample.branch}` starts from an event of another branch: a sweep follows branches started from modes")
-    mode_text, pattern = start
+    mode_text, pattern = _branch_start(tuned, sample.branch)
     tuned_modes = modes(tuned)
     tuned_index = int(mode_text) if mode_text.isdigit() else tuned_modes.index(mode_text, pattern or "cos")
     cyclic = tuned.cyclic
@@ -215,11 +220,9 @@ def run_sample(
         alike = (mistuned.shapes.T @ (mass @ tuned_shape)) ** 2
         mode = int(np.argmax(alike))
         mac = float(alike[mode])
-    try:
-        branch = backbone(model, mode, branch=sample.branch, progress=False, raise_on_failure=False)
-        error = "" if branch.stop_kind not in ("step-too-small", "first-point") else branch.stop
-    except ContinuationError as e:  # only raised with raise_on_failure=True; kept for safety
-        branch, error = e.branch, str(e)
+    # A failed branch comes back with its points (raise_on_failure=False), its reason in `stop`.
+    branch = backbone(model, mode, branch=sample.branch, progress=False, raise_on_failure=False)
+    error = branch.stop if branch.stop_kind in ("step-too-small", "first-point") else ""
     top = top or (default_top(cyclic[0]) if cyclic else 1)
     share = localization(model, branch, cyclic, top, motion_samples) if cyclic and len(branch) else np.full(len(branch), math.nan)
     last = len(branch) - 1
@@ -373,8 +376,7 @@ def sweep(
     if not names:
         raise ValueError(f"{job_path}: the job has no branch started from a mode to sweep")
     for name in names:
-        if tuned._native.branch_mode(name) is None:
-            raise ValueError(f"branch `{name}` starts from an event of another branch: a sweep follows branches started from modes")
+        _branch_start(tuned, name)
     if any(s > 0 for s in mistuning) and (tuned.family != "bladed-disk" or tuned.cyclic is None):
         raise ValueError("mistuning applies to a bladed disk (`family = \"bladed-disk\"`); vary other models with a grid")
     for key in grid:
