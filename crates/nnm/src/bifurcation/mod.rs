@@ -113,8 +113,15 @@ pub struct Event {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Crossing {
     Fold,
-    PlusOne,
-    MinusOne,
+    /// A pair through `+1`; `resting` pairs sit at `+1` on both sides (see [`resting`]) and
+    /// are left out of its test function.
+    PlusOne {
+        resting: usize,
+    },
+    /// A pair through `-1`, with `resting` pairs at `-1` on both sides.
+    MinusOne {
+        resting: usize,
+    },
     /// Invariants `σ` collide near `rho` (the real part of the complex pair): two, or more
     /// when the colliding pairs are degenerate by symmetry (`count` invariants in all).
     Krein {
@@ -127,8 +134,8 @@ impl Crossing {
     pub(crate) fn kind(self) -> EventKind {
         match self {
             Crossing::Fold => EventKind::Fold,
-            Crossing::PlusOne => EventKind::BranchPoint,
-            Crossing::MinusOne => EventKind::PeriodDoubling,
+            Crossing::PlusOne { .. } => EventKind::BranchPoint,
+            Crossing::MinusOne { .. } => EventKind::PeriodDoubling,
             Crossing::Krein { .. } => EventKind::NeimarkSacker,
         }
     }
@@ -156,10 +163,15 @@ pub(crate) fn detect(a: &BranchPoint, b: &BranchPoint) -> Vec<Crossing> {
     // stability tolerance *and* its invariant passes `±2` in the interval: a pair already
     // beyond `±1` but within the tolerance at `a` crossed earlier (at the linear limit, for
     // the degenerate partner of a standing wave), and only its stability verdict changes here.
+    // A pair resting at `±1` ([`is_resting`]) is on either side of it by round-off: it counts
+    // as beyond, so that its flips do not cancel (or fake) a crossing.
     let beyond = |f: &Floquet, target: f64| {
         f.pairs
             .iter()
-            .filter(|p| p.kind != PairKind::Complex && (p.trace().0 - target) * target > 0.0)
+            .filter(|p| {
+                p.kind != PairKind::Complex
+                    && ((p.trace().0 - target) * target > 0.0 || is_resting(p, target))
+            })
             .count()
     };
     // Every event of the list leaves or joins the unit circle, so the number of elliptic
@@ -171,13 +183,17 @@ pub(crate) fn detect(a: &BranchPoint, b: &BranchPoint) -> Vec<Crossing> {
         && count(fa, PairKind::PositiveReal) != count(fb, PairKind::PositiveReal)
         && beyond(fa, 2.0) != beyond(fb, 2.0)
     {
-        found.push(Crossing::PlusOne);
+        found.push(Crossing::PlusOne {
+            resting: resting(fa, fb, 2.0),
+        });
     }
     if on_circle_changed
         && count(fa, PairKind::NegativeReal) != count(fb, PairKind::NegativeReal)
         && beyond(fa, -2.0) != beyond(fb, -2.0)
     {
-        found.push(Crossing::MinusOne);
+        found.push(Crossing::MinusOne {
+            resting: resting(fa, fb, -2.0),
+        });
     }
     // A Krein collision trades pairs on the circle for a quadruplet (or back): the counts
     // of elliptic and complex pairs move in opposite directions. Both falling at once is a
@@ -274,10 +290,10 @@ pub(crate) fn test_function(crossing: Crossing, point: &BranchPoint) -> Option<(
         // The fold's own pair crosses +1 with it: report the multiplier nearest +1.
         Crossing::Fold => Some((
             point.energy_slope,
-            characteristic(pairs, 2.0).map_or((1.0, 0.0), |(_, m)| m),
+            characteristic(pairs, 2.0, 0).map_or((1.0, 0.0), |(_, m)| m),
         )),
-        Crossing::PlusOne => characteristic(pairs, 2.0),
-        Crossing::MinusOne => characteristic(pairs, -2.0),
+        Crossing::PlusOne { resting } => characteristic(pairs, 2.0, resting),
+        Crossing::MinusOne { resting } => characteristic(pairs, -2.0, resting),
         Crossing::Krein { rho, count } => {
             // Near `rho`, either a quadruplet (complex conjugate invariants σ, σ̄) or the
             // `count` invariants on the circle that collide into it. With `c` their mean,
@@ -333,16 +349,32 @@ pub(crate) fn test_function(crossing: Crossing, point: &BranchPoint) -> Option<(
 }
 
 /// `∏ (target - σ_k)·sign(target)` over the distinct invariants (twins by symmetry counted
-/// once): `det(±I - D)` up to round-off, with `D` the monodromy with its trivial pair
-/// deflated, so smooth along the branch. It changes sign when one pair (or one symmetric set of
-/// twins) crosses `±1`, while pairs that stay near `±1` without crossing (a degenerate
-/// partner, say) do not disturb it, unlike a test on the single pair nearest `±1`. Complex
-/// invariants come in conjugates, whose product is positive. Also returns the multiplier of
-/// the pair nearest the target.
-fn characteristic(pairs: &[crate::floquet::MultiplierPair], target: f64) -> Option<(f64, Complex)> {
+/// once), leaving out the `resting` invariants nearest `target`: `det(±I - D)` up to
+/// round-off and the resting factors, with `D` the monodromy with its trivial pair deflated,
+/// so smooth along the branch. It changes sign when one pair (or one symmetric set of twins)
+/// crosses `±1`, while pairs that stay near `±1` without crossing (a degenerate partner, say)
+/// do not disturb it, unlike a test on the single pair nearest `±1`. Complex invariants come
+/// in conjugates, whose product is positive. Also returns the multiplier of the pair nearest
+/// the target among those kept.
+///
+/// The resting pairs go first, before twins are merged: a crossing pair near its root is
+/// within [`TWIN_INVARIANT`] of a resting one and would otherwise be merged into it, leaving
+/// the product with the resting pair's round-off sign.
+fn characteristic(
+    pairs: &[crate::floquet::MultiplierPair],
+    target: f64,
+    resting: usize,
+) -> Option<(f64, Complex)> {
+    let distance = |p: &crate::floquet::MultiplierPair| {
+        let s = p.trace();
+        (s.0 - target).hypot(s.1)
+    };
+    let mut nearest_first: Vec<&crate::floquet::MultiplierPair> = pairs.iter().collect();
+    nearest_first.sort_by(|x, y| distance(x).total_cmp(&distance(y)));
+    let kept = nearest_first.get(resting..)?;
     let mut seen: Vec<Complex> = Vec::new();
     let mut value = 1.0f64;
-    for p in pairs {
+    for p in kept {
         let s = p.trace();
         if seen
             .iter()
@@ -358,22 +390,42 @@ fn characteristic(pairs: &[crate::floquet::MultiplierPair], target: f64) -> Opti
             value *= (target - s.0) * target.signum();
         }
     }
-    let nearest = pairs.iter().min_by(|x, y| {
-        (x.trace().0 - target)
-            .abs()
-            .total_cmp(&(y.trace().0 - target).abs())
-    })?;
+    let nearest = kept.first()?;
     value.is_finite().then_some((value, nearest.multiplier))
 }
 
 /// Invariants this close (relative) are twins: pairs degenerate by a symmetry of the motion.
 const TWIN_INVARIANT: f64 = 1e-6;
 
-/// How many pairs sit at the critical multiplier (within 1e-4 on `σ`).
+/// A pair on the unit circle whose invariant is this close to `±2` rests at `±1`: it cannot be
+/// told from `±1` at the default stability tolerance (`|μ ∓ 1| = 1e-4` gives `|σ ∓ 2| = 1e-8`),
+/// and which side of it the computed invariant falls is round-off. Such pairs are structural:
+/// the Jordan block of a decoupled rigid-body mode, the degenerate partner of a standing wave
+/// on a family whose quartic energy is blind to the pattern's orientation. On the bladed
+/// disk's n = 0 backbones two pairs rest there with `|σ − 2|` from 1e-16 to 5e-10, flipping
+/// sides from point to point; counted, they made 40 of the study's branch points
+/// unlocatable (docs/method.md §8, "Resting pairs").
+const RESTING_INVARIANT: f64 = 1e-8;
+
+fn is_resting(pair: &crate::floquet::MultiplierPair, target: f64) -> bool {
+    let s = pair.trace();
+    pair.kind == PairKind::Elliptic && (s.0 - target).hypot(s.1) < RESTING_INVARIANT
+}
+
+/// How many pairs rest at `target / 2` (`±1`) at both ends of a step: the fewer of the two
+/// counts.
+fn resting(a: &Floquet, b: &Floquet, target: f64) -> usize {
+    let at = |f: &Floquet| f.pairs.iter().filter(|p| is_resting(p, target)).count();
+    at(a).min(at(b))
+}
+
+/// How many pairs sit at the critical multiplier (within 1e-4 on `σ`), the resting ones not
+/// counted.
 pub(crate) fn multiplicity(crossing: Crossing, point: &BranchPoint) -> usize {
-    let target = match crossing {
-        Crossing::Fold | Crossing::PlusOne => 2.0,
-        Crossing::MinusOne => -2.0,
+    let (target, resting) = match crossing {
+        Crossing::Fold => (2.0, 0),
+        Crossing::PlusOne { resting } => (2.0, resting),
+        Crossing::MinusOne { resting } => (-2.0, resting),
         // `count` invariants: σ and σ̄ of each quadruplet.
         Crossing::Krein { count, .. } => return (count / 2).max(1),
     };
@@ -383,6 +435,7 @@ pub(crate) fn multiplicity(crossing: Crossing, point: &BranchPoint) -> usize {
         .iter()
         .filter(|p| p.kind != PairKind::Complex && (p.trace().0 - target).abs() < 1e-4)
         .count()
+        .saturating_sub(resting)
         .max(1)
 }
 
@@ -448,9 +501,13 @@ mod tests {
             point(1.0, &[(1.0, Some(0.01)), other]),
             point(1.0, &[(1.02, None), other]),
         );
-        assert_eq!(detect(&a, &b), vec![Crossing::PlusOne]);
-        let fa = test_function(Crossing::PlusOne, &a).unwrap().0;
-        let fb = test_function(Crossing::PlusOne, &b).unwrap().0;
+        assert_eq!(detect(&a, &b), vec![Crossing::PlusOne { resting: 0 }]);
+        let fa = test_function(Crossing::PlusOne { resting: 0 }, &a)
+            .unwrap()
+            .0;
+        let fb = test_function(Crossing::PlusOne { resting: 0 }, &b)
+            .unwrap()
+            .0;
         assert!(fa * fb < 0.0, "{fa} {fb}");
         // The same with a fold in the interval: the fold's own crossing.
         let b_fold = point(-1.0, &[(1.02, None), other]);
@@ -460,9 +517,13 @@ mod tests {
             point(1.0, &[(1.0, Some(3.1)), other]),
             point(1.0, &[(-1.05, None), other]),
         );
-        assert_eq!(detect(&a, &b), vec![Crossing::MinusOne]);
-        let fa = test_function(Crossing::MinusOne, &a).unwrap().0;
-        let fb = test_function(Crossing::MinusOne, &b).unwrap().0;
+        assert_eq!(detect(&a, &b), vec![Crossing::MinusOne { resting: 0 }]);
+        let fa = test_function(Crossing::MinusOne { resting: 0 }, &a)
+            .unwrap()
+            .0;
+        let fb = test_function(Crossing::MinusOne { resting: 0 }, &b)
+            .unwrap()
+            .0;
         assert!(fa * fb < 0.0, "{fa} {fb}");
         // A Krein collision: two pairs at angles 0.9 and 1.0 meet and leave as a quadruplet.
         let a = point(1.0, &[(1.0, Some(0.9)), (1.0, Some(1.0))]);
@@ -496,11 +557,46 @@ mod tests {
         let other = (1.0, Some(2.0));
         let a = point(1.0, &[(1.0, Some(0.01)), (1.0, Some(0.01)), other]);
         let b = point(1.0, &[(1.005, None), (1.005, None), other]);
-        assert_eq!(detect(&a, &b), vec![Crossing::PlusOne]);
-        assert_eq!(multiplicity(Crossing::PlusOne, &b), 2);
-        let fa = test_function(Crossing::PlusOne, &a).unwrap().0;
-        let fb = test_function(Crossing::PlusOne, &b).unwrap().0;
+        assert_eq!(detect(&a, &b), vec![Crossing::PlusOne { resting: 0 }]);
+        assert_eq!(multiplicity(Crossing::PlusOne { resting: 0 }, &b), 2);
+        let fa = test_function(Crossing::PlusOne { resting: 0 }, &a)
+            .unwrap()
+            .0;
+        let fb = test_function(Crossing::PlusOne { resting: 0 }, &b)
+            .unwrap()
+            .0;
         assert!(fa * fb < 0.0, "{fa} {fb}");
+    }
+
+    /// A pair resting at +1 (a rigid-body Jordan block under round-off: real on one side,
+    /// complex on the other, `|σ − 2| ~ 1e-12`) neither counts as a crossing nor sets the sign
+    /// of the test function of a pair that does cross, even where the crossing pair passes
+    /// within twin distance of it.
+    #[test]
+    fn pairs_resting_at_plus_one_do_not_disturb_a_crossing() {
+        let other = (1.0, Some(2.0));
+        let below = (1.0, Some(1e-6)); // σ − 2 = −1e-12
+        let above = (1.0 + 1e-6, None); // σ − 2 = +1e-12
+        // Only the resting pair changes sides: nothing happens.
+        let (a, b) = (point(1.0, &[below, other]), point(1.0, &[above, other]));
+        assert!(detect(&a, &b).is_empty());
+        // A pair crossing +1 while the resting pair changes sides the other way.
+        let a = point(1.0, &[(1.0, Some(0.01)), above, other]);
+        let b = point(1.0, &[(1.02, None), below, other]);
+        let found = detect(&a, &b);
+        assert_eq!(found, vec![Crossing::PlusOne { resting: 1 }]);
+        assert_eq!(multiplicity(found[0], &b), 1);
+        let f = |p: &BranchPoint| test_function(found[0], p).unwrap();
+        assert!(f(&a).0 > 0.0 && f(&b).0 < 0.0, "{:?} {:?}", f(&a), f(&b));
+        // The critical multiplier is the crossing pair's, not the resting one's.
+        assert!((f(&b).1.0 - 1.02).abs() < 1e-12, "{:?}", f(&b).1);
+        // Near the root the crossing pair is 2e-7 from σ = 2, within twin distance of the
+        // resting pair: the sign is still the crossing pair's, on both sides.
+        let near = |angle: Option<f64>, r: f64| point(1.0, &[(r, angle), below, other]);
+        let before = near(Some(4.5e-4), 1.0); // σ − 2 ≈ −2e-7
+        let after = near(None, 1.0 + 4.5e-4); // σ − 2 ≈ +2e-7
+        assert!(f(&before).0 > 0.0 && f(&after).0 < 0.0);
+        assert!(f(&before).0.abs() < 1e-6 && f(&after).0.abs() < 1e-6);
     }
 
     #[test]
