@@ -403,8 +403,8 @@ const TWIN_INVARIANT: f64 = 1e-6;
 /// the Jordan block of a decoupled rigid-body mode, the degenerate partner of a standing wave
 /// on a family whose quartic energy is blind to the pattern's orientation. On the bladed
 /// disk's n = 0 backbones two pairs rest there with `|σ − 2|` from 1e-16 to 5e-10, flipping
-/// sides from point to point; counted, they made 40 of the study's branch points
-/// unlocatable (docs/method.md §8, "Resting pairs").
+/// sides from point to point; counted, they left 13 of the study's 128 branch points to be
+/// placed by bisection (5 of 130 without them; docs/method.md eq. (40a)).
 const RESTING_INVARIANT: f64 = 1e-8;
 
 fn is_resting(pair: &crate::floquet::MultiplierPair, target: f64) -> bool {
