@@ -96,7 +96,12 @@ pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<Branc
                 name: b.name.clone(),
                 mode_index: index,
                 mode_label: mode.label(),
-                pattern: mode.cyclic.and_then(|c| c.pattern),
+                pattern: b
+                    .travel
+                    .is_none()
+                    .then(|| mode.cyclic.and_then(|c| c.pattern))
+                    .flatten(),
+                travel: b.travel,
                 linear_frequency_rad_s: mode.frequency,
                 symmetry: None,
                 switched_from: None,
@@ -354,19 +359,7 @@ pub fn make_start(
 ) -> Result<Start> {
     let job = &request.job;
     let start = match parent {
-        None => {
-            let start = Start::from_linear_mode(
-                structure,
-                modes,
-                request.index,
-                job.settings.start.energy_start,
-            )?;
-            if job.settings.start.symmetry {
-                start
-            } else {
-                start.unrestricted()
-            }
-        }
+        None => Start::for_branch(structure, modes, request.index, job.travel, &job.settings)?,
         Some((from, parent)) => {
             let (Ok(branch), Some(parent_start)) = (&parent.result, &parent.start) else {
                 bail!("its parent branch `{}` failed", from.branch);

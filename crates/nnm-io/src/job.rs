@@ -35,7 +35,7 @@ use nnm::model::{
     PolynomialSpring, PolynomialTensor, Structure, TensorError, VonKarmanBeam, duffing, two_dof,
 };
 use nnm::modes::{LinearMode, StandingWave, find_mode};
-use nnm::shooting::PhaseCondition;
+use nnm::shooting::{PhaseCondition, Travel};
 use serde::Deserialize;
 
 use crate::matrix_market::{MarketMatrix, MatrixMarketError, read_matrix_market};
@@ -85,6 +85,8 @@ pub struct BranchJob {
     /// Start from an event of an earlier branch instead of a linear mode.
     pub from_event: Option<EventStart>,
     pub pattern: Option<StandingWave>,
+    /// `pattern = "travelling"` (or `"travelling-backward"`): the travelling wave of the pair.
+    pub travel: Option<Travel>,
     /// Every setting of the branch: the `[settings]` section overridden key by key by the
     /// branch's own (the start energy and symmetry restriction are in `settings.start`).
     pub settings: Settings,
@@ -210,8 +212,10 @@ fn settings_from(table: toml::Table) -> Result<Settings, String> {
 pub struct BranchBody {
     /// Mode label `"n,d"` or index, as written (empty for a branch started from an event).
     pub mode: String,
-    /// The standing wave of a degenerate pair, when given.
+    /// The standing wave of a degenerate pair, when given (the cos one for a travelling wave).
     pub pattern: Option<StandingWave>,
+    /// The travelling wave of the pair instead of a standing one.
+    pub travel: Option<Travel>,
     /// `defaults` overridden key by key by the table's own settings, validated.
     pub settings: Settings,
 }
@@ -225,11 +229,11 @@ pub fn branch_body(
     defaults: &toml::Table,
     from_event: bool,
 ) -> Result<BranchBody, String> {
-    let (mode, pattern) = branch_mode(&mut table, from_event)?;
+    let (mode, pattern, travel) = branch_mode(&mut table, from_event)?;
     if from_event {
         // A switched branch takes its start, unknowns and period from the switch.
         let ignored = [
-            ("pattern", pattern.is_some()),
+            ("pattern", pattern.is_some() || travel.is_some()),
             ("energy_start", table.contains_key("energy_start")),
             ("symmetry", table.contains_key("symmetry")),
             ("half_period", table.contains_key("half_period")),
@@ -255,16 +259,20 @@ pub fn branch_body(
     Ok(BranchBody {
         mode,
         pattern,
+        travel,
         settings,
     })
 }
+
+const PATTERN_VALUES: &str =
+    "`pattern` must be \"cos\", \"sin\", \"travelling\" or \"travelling-backward\"";
 
 /// A branch's `mode` and `pattern`, taken out of its table (see [`branch_body`]); also for
 /// front ends that run a job's branch from another mode.
 pub fn branch_mode(
     table: &mut toml::Table,
     from_event: bool,
-) -> Result<(String, Option<StandingWave>), String> {
+) -> Result<(String, Option<StandingWave>, Option<Travel>), String> {
     let mode = match (table.remove("mode"), from_event) {
         (Some(_), true) => return Err("give either `mode` or `start`, not both".into()),
         (None, true) => String::new(),
@@ -277,13 +285,18 @@ pub fn branch_mode(
             return Err("missing `mode` (or `start = { branch = \"NAME\", event = K }`)".into());
         }
     };
-    let pattern = match table.remove("pattern") {
-        None => None,
-        Some(toml::Value::String(s)) if s == "cos" => Some(StandingWave::Cos),
-        Some(toml::Value::String(s)) if s == "sin" => Some(StandingWave::Sin),
-        Some(_) => return Err("`pattern` must be \"cos\" or \"sin\"".into()),
+    let (pattern, travel) = match table.remove("pattern") {
+        None => (None, None),
+        Some(toml::Value::String(s)) => match s.as_str() {
+            "cos" => (Some(StandingWave::Cos), None),
+            "sin" => (Some(StandingWave::Sin), None),
+            "travelling" => (None, Some(Travel::Forward)),
+            "travelling-backward" => (None, Some(Travel::Backward)),
+            _ => return Err(PATTERN_VALUES.into()),
+        },
+        Some(_) => return Err(PATTERN_VALUES.into()),
     };
-    Ok((mode, pattern))
+    Ok((mode, pattern, travel))
 }
 
 /// The index of the starting mode of a branch asked for as `mode` (a label `"n,d"` or an
@@ -490,6 +503,7 @@ fn job_from_file(file: JobFile, path: &Path) -> Result<Job, JobError> {
         let BranchBody {
             mode,
             pattern,
+            travel,
             settings,
         } = branch_body(table, &defaults, from_event.is_some())
             .map_err(|m| invalid(context(&m)))?;
@@ -498,6 +512,7 @@ fn job_from_file(file: JobFile, path: &Path) -> Result<Job, JobError> {
             mode,
             from_event,
             pattern,
+            travel,
             settings,
         });
     }

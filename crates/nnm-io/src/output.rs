@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 
 use nnm::bifurcation::Event;
 use nnm::modes::{LinearMode, StandingWave};
+use nnm::shooting::Travel;
 use nnm::symmetry::Parity;
 use nnm::{Branch, BranchPoint, BranchStats};
 use serde::Serialize;
@@ -74,6 +75,10 @@ pub struct BranchInfo {
     pub mode_index: usize,
     pub mode_label: String,
     pub pattern: Option<StandingWave>,
+    /// A travelling wave of the pair (`travelling`, `travelling-backward`) instead of a
+    /// standing one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub travel: Option<Travel>,
     pub linear_frequency_rad_s: f64,
     /// Mirror-symmetry class the shooting unknowns were restricted to (`even`/`odd`), if any.
     pub symmetry: Option<Parity>,

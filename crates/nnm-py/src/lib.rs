@@ -386,7 +386,7 @@ impl NativeModel {
                         "mode".to_string(),
                         convert::to_toml("mode", mode)?,
                     )]);
-                    (body.mode, body.pattern) =
+                    (body.mode, body.pattern, body.travel) =
                         nnm_io::job::branch_mode(&mut table, false).map_err(input_error)?;
                 }
                 body
@@ -404,20 +404,17 @@ impl NativeModel {
             .map_err(PyValueError::new_err)?;
         let structure = &self.structure;
         let start = no_panic(|| {
-            let start =
-                Start::from_linear_mode(structure, &modes, index, body.settings.start.energy_start)
-                    .map_err(value_error)?;
-            Ok(if body.settings.start.symmetry {
-                start
-            } else {
-                start.unrestricted()
-            })
+            Start::for_branch(structure, &modes, index, body.travel, &body.settings)
+                .map_err(value_error)
         })?;
         let out = self.follow(py, start, &body.settings, callback)?;
         let mode = &modes[index];
         out.set_item("mode_index", index)?;
         out.set_item("mode_label", mode.cyclic.map(|_| mode.label()))?;
-        out.set_item("pattern", wave_name(mode.cyclic.and_then(|c| c.pattern)))?;
+        match body.travel {
+            Some(travel) => out.set_item("pattern", travel.name())?,
+            None => out.set_item("pattern", wave_name(mode.cyclic.and_then(|c| c.pattern)))?,
+        }
         Ok(out)
     }
 

@@ -94,6 +94,7 @@ pub(super) fn compute(
             mode: label.clone(),
             from_event: None,
             pattern: None,
+            travel: None,
             settings: settings.clone(),
         })
         .collect();

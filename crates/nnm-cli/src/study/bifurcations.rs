@@ -246,6 +246,7 @@ fn switch_at_first_branch_point<'a>(
         mode: String::new(),
         from_event: None,
         pattern: None,
+        travel: None,
         settings: {
             let mut s = settings.clone();
             s.start.symmetry = false;

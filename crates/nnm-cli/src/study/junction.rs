@@ -53,6 +53,7 @@ pub(super) fn check(
         mode: "1,12".into(),
         from_event: None,
         pattern: None,
+        travel: None,
         settings: {
             let mut s = settings.clone();
             s.limits.energy_max = 3.0 * e_junction;

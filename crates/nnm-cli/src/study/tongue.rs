@@ -197,6 +197,7 @@ pub(super) fn continue_tongue(
         mode: "0,6".into(),
         from_event: None,
         pattern: None,
+        travel: None,
         settings: {
             let mut s = settings.clone();
             s.limits.energy_max = f64::INFINITY;

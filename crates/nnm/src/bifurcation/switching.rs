@@ -119,6 +119,7 @@ pub fn switch_branch<S: MechanicalSystem + ?Sized>(
 
     let mut child = parent.clone().unrestricted();
     child.half_period = false;
+    child.shift = None;
     child.omega = parent.omega / multiple;
     child.period = multiple * point.period;
     child.z0 = point.z0.clone();

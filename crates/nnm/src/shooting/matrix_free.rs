@@ -263,7 +263,18 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         phase_reference: &[f64],
     ) -> Result<Evaluation, ShootingError> {
         let n2 = 2 * self.n;
-        let (period, horizon, sign) = self.horizon(u[n2])?;
+        let (period, horizon) = self.horizon(u[n2])?;
+        // `H = z(horizon) + sign · z0`: the half-wave symmetry only (a sector shift would
+        // need the permutation in every product; travelling waves are shot dense).
+        let sign = match &self.shift {
+            None => -1.0,
+            Some(shift) if shift.is_half_wave() => 1.0,
+            Some(_) => {
+                return Err(ShootingError::Unsupported(
+                    "travelling waves are shot with the dense formulation; set formulation = \"dense\"".into(),
+                ));
+            }
+        };
         let free = self.matrix_free.as_ref().expect("matrix-free formulation");
         let z0 = free.state(&u[..n2]);
         self.scale_tolerances(&z0);

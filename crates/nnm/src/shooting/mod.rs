@@ -22,10 +22,12 @@
 mod matrix_free;
 mod monodromy;
 mod point;
+mod shift;
 mod start;
 
 pub use matrix_free::MatrixFreeJacobian;
 pub use point::{BranchPoint, PointLabel};
+pub use shift::{ShiftSymmetry, Travel};
 pub use start::{Start, StartError};
 
 use crate::continuation::Linearization;
@@ -183,7 +185,8 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     jacobian_method: JacobianMethod,
     omega_ref: f64,
     amplitude_scale: f64,
-    half_period: bool,
+    /// `z(T/q) = P z0` shot instead of `z(T) = z0`, if any (docs/method.md §17).
+    shift: Option<ShiftSymmetry>,
     period_ref: f64,
     /// State directions of the unknowns, `2n × m`.
     state_basis: Vec<f64>,
@@ -253,7 +256,7 @@ impl<S: MechanicalSystem + ?Sized> std::fmt::Debug for Shooting<'_, S> {
             .field("modes", &self.r)
             .field("unknown_modes", &self.r_u)
             .field("phase", &self.phase)
-            .field("half_period", &self.half_period)
+            .field("shift", &self.shift)
             .finish()
     }
 }
@@ -277,9 +280,9 @@ pub struct ShootingSetup {
     /// nonlinearity becomes strong, it makes `a` and `τ` both O(1) in the nonlinear regime,
     /// so the arclength does not depend on the model's length unit.
     pub amplitude_scale: f64,
-    /// Shoot over half a period on `z(T/2) = -z0` (valid for odd systems, `g(-z) = -g(z)`,
-    /// and half-wave-symmetric motions): half the integration, and `Φ(T) = Φ(T/2)²`.
-    pub half_period: bool,
+    /// Shoot over `T/q` on `z(T/q) = P z0` (docs/method.md §17): `z(T/2) = -z0` for odd
+    /// systems' half-wave-symmetric motions, a sector shift for travelling waves.
+    pub shift: Option<ShiftSymmetry>,
     /// The first phase reference (the start's state).
     pub phase_reference: Vec<f64>,
     /// Whether `basis` holds every elastic mode (the dense formulation needs them all).
@@ -297,7 +300,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             omega_ref,
             phase,
             amplitude_scale,
-            half_period,
+            shift,
             phase_reference,
             complete_basis,
         } = setup;
@@ -374,7 +377,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             jacobian_method: settings.shooting.jacobian,
             omega_ref,
             amplitude_scale: a,
-            half_period,
+            shift,
             period_ref: 2.0 * std::f64::consts::PI / omega_ref,
             state_basis,
             integrator,
@@ -499,18 +502,24 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         self.stats.integration += flow.stats;
     }
 
-    /// `T = τ T_ref` (`NonPositivePeriod` unless positive and finite), the horizon shot
-    /// (`T` or `T/2`) and the sign of `z0` in `H = z(horizon) ± z0`.
-    fn horizon(&self, tau: f64) -> Result<(f64, f64, f64), ShootingError> {
+    /// `T = τ T_ref` (`NonPositivePeriod` unless positive and finite) and the horizon shot
+    /// (`T`, or `T/q` with a [`ShiftSymmetry`]).
+    fn horizon(&self, tau: f64) -> Result<(f64, f64), ShootingError> {
         let period = tau * self.period_ref;
         if !(period.is_finite() && period > 0.0) {
             return Err(ShootingError::NonPositivePeriod(period));
         }
-        Ok(if self.half_period {
-            (period, 0.5 * period, 1.0)
-        } else {
-            (period, period, -1.0)
-        })
+        let divisions = self.shift.as_ref().map_or(1, |s| s.divisions);
+        Ok((period, period / divisions as f64))
+    }
+
+    /// The target of the shooting equations for a state: `z0`, or `P z0` with a shift
+    /// (`H = z(horizon) − P z0`, eq. (80)).
+    fn shifted(&self, z: &[f64]) -> Vec<f64> {
+        match &self.shift {
+            Some(shift) => shift.apply(z),
+            None => z.to_vec(),
+        }
     }
 
     /// Sets the integrator's absolute tolerance from the motion's displacement scale
@@ -595,15 +604,16 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         }
         let n2 = 2 * self.n;
         let m = u.len() - 1;
-        let (period, horizon, sign) = self.horizon(u[m])?;
+        let (period, horizon) = self.horizon(u[m])?;
         let z0 = self.initial_state(u);
         let directions = std::mem::take(&mut self.state_basis);
         let result = self.flow_with_derivative(&z0, horizon, &directions, None);
         self.state_basis = directions;
         let (flow, derivative) = result?;
 
-        // H = z(T) - z0, or z(T/2) + z0 over half a period, weighted mode by mode (eq. (17)).
-        let h: Vec<f64> = (0..n2).map(|i| flow.z[i] + sign * z0[i]).collect();
+        // H = z(T) - z0, or z(T/q) - P z0 with a shift, weighted mode by mode (eq. (17)).
+        let target = self.shifted(&z0);
+        let h: Vec<f64> = (0..n2).map(|i| flow.z[i] - target[i]).collect();
         let mut rows = self.weighted_modal(&h);
         let r2 = rows.len();
         let relative_residual =
@@ -612,15 +622,15 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         let mut jacobian = Mat::<f64>::zeros(r2 + phase_rows, m + 1);
         let mut column = vec![0.0; n2];
         for c in 0..m {
-            let s = &self.state_basis[c * n2..(c + 1) * n2];
+            let s = self.shifted(&self.state_basis[c * n2..(c + 1) * n2]);
             for i in 0..n2 {
-                column[i] = derivative[c * n2 + i] + sign * s[i];
+                column[i] = derivative[c * n2 + i] - s[i];
             }
             for (i, v) in self.weighted_modal(&column).into_iter().enumerate() {
                 jacobian[(i, c)] = v;
             }
         }
-        // ∂H/∂τ = (horizon/τ) g(z(horizon)): T_ref g(z(T)), or T_ref/2 g(z(T/2)).
+        // ∂H/∂τ = (horizon/τ) g(z(horizon)): T_ref g(z(T)), or T_ref/q g(z(T/q)).
         let mut g_end = vec![0.0; n2];
         self.integrator.field(&flow.z, &mut g_end);
         g_end.iter_mut().for_each(|g| *g *= horizon / u[m]);

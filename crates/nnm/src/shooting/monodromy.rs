@@ -1,7 +1,7 @@
 //! The monodromy of a converged point in modal coordinates, and the full-period check of
 //! half-period points (docs/method.md §7 and eq. (10)).
 
-use super::{Evaluation, PhaseCondition, Shooting, ShootingError};
+use super::{Evaluation, PhaseCondition, ShiftSymmetry, Shooting, ShootingError};
 use crate::integrate::Steps;
 use crate::linalg::{self, Mat};
 use crate::model::MechanicalSystem;
@@ -59,30 +59,38 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
                     integrated[(next_missing - 1) * n2..next_missing * n2].to_vec()
                 }
             };
+            // With a shift, the column of P⁻¹ Φ(T/q): the derivative of z0 ↦ P⁻¹ z(T/q; z0),
+            // whose q-th power is Φ(T) (eq. (82)).
+            let column = match &self.shift {
+                Some(shift) => shift.apply_inverse(&column),
+                None => column,
+            };
             for k in 0..r {
                 let mb = &self.mass_basis[k * n..(k + 1) * n];
                 reduced[(k, c)] = linalg::dot(mb, &column[..n]);
                 reduced[(r + k, c)] = linalg::dot(mb, &column[n..]);
             }
         }
-        if self.half_period {
-            // Odd system and z(T/2) = -z0: the second half-period map equals the first.
-            reduced = linalg::product(reduced.as_ref(), reduced.as_ref());
+        if let Some(shift) = &self.shift {
+            let map = reduced.clone();
+            for _ in 1..shift.divisions {
+                reduced = linalg::product(map.as_ref(), reduced.as_ref());
+            }
         }
         Ok(reduced)
     }
 
-    /// The periodicity residual over the full period, `‖W(z(T) - z0)‖ / ‖W z0‖`: for a
-    /// half-period evaluation, the second half is integrated (without sensitivities) to check
-    /// that the motion really is half-wave symmetric.
+    /// The periodicity residual over the full period, `‖W(z(T) - z0)‖ / ‖W z0‖`: for an
+    /// evaluation over `T/q` (a [`super::ShiftSymmetry`]), the rest of the period is
+    /// integrated (without sensitivities) to check that the motion really has the symmetry.
     pub fn full_period_residual(&mut self, evaluation: &Evaluation) -> Result<f64, ShootingError> {
-        if !self.half_period {
+        let Some(divisions) = self.shift.as_ref().map(|s| s.divisions) else {
             return Ok(evaluation.relative_residual);
-        }
-        let half = 0.5 * evaluation.period;
+        };
+        let rest = evaluation.period * (divisions - 1) as f64 / divisions as f64;
         let flow = self.integrate(
             &evaluation.z_end,
-            half,
+            rest,
             None,
             Steps::Adaptive {
                 first_step: self.first_step,
@@ -183,8 +191,13 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         (self.r_u < self.r).then(|| (0..self.r_u).chain(self.r..self.r + self.r_u).collect())
     }
 
-    /// Whether the problem is shot over half a period.
+    /// Whether the problem is shot over half a period (`z(T/2) = −z0`).
     pub fn half_period(&self) -> bool {
-        self.half_period
+        self.shift.as_ref().is_some_and(ShiftSymmetry::is_half_wave)
+    }
+
+    /// The spatio-temporal symmetry shot with, if any.
+    pub fn shift(&self) -> Option<&ShiftSymmetry> {
+        self.shift.as_ref()
     }
 }

@@ -2,10 +2,10 @@
 //! a first guess — from a linear mode of any [`MechanicalSystem`], or from a user's state and
 //! period.
 
-use super::{PhaseCondition, Shooting, ShootingSetup};
+use super::{PhaseCondition, ShiftSymmetry, Shooting, ShootingSetup, Travel};
 use crate::linalg;
 use crate::model::{Block, BlockMut, MechanicalSystem};
-use crate::modes::{LinearMode, ModesError, linear_modes};
+use crate::modes::{LinearMode, ModesError, StandingWave, linear_modes};
 use crate::settings::Settings;
 use crate::symmetry::{Parity, invariant_class, is_odd, sample_states};
 
@@ -33,6 +33,9 @@ pub struct Start {
     /// Whether half-period shooting may be used (when the system is odd and the settings
     /// allow it); false for a branch that breaks the half-wave symmetry.
     pub half_period: bool,
+    /// A spatio-temporal symmetry the branch is shot with (a travelling wave's sector shift,
+    /// [`Start::travelling_wave`]); `None`: the half-wave one when `half_period` allows it.
+    pub shift: Option<ShiftSymmetry>,
     /// State direction (length 2n) whose projection the first corrector holds fixed, and
     /// along which the branch sets off; `None`: `z0` itself (the starting mode's amplitude).
     pub pin: Option<Vec<f64>>,
@@ -143,9 +146,125 @@ impl Start {
             z0,
             period: 2.0 * std::f64::consts::PI / mode.frequency,
             half_period: true,
+            shift: None,
             pin: None,
             phase: None,
             complete_basis: modes.len() >= n,
+        })
+    }
+
+    /// The start of a branch as a job asks for it: the standing wave of mode `index`,
+    /// restricted to its symmetry class unless `settings.start.symmetry` is off, or with
+    /// `travel` the travelling wave of its pair; at `settings.start.energy_start` if given.
+    pub fn for_branch<S: MechanicalSystem + ?Sized>(
+        system: &S,
+        modes: &[LinearMode],
+        index: usize,
+        travel: Option<Travel>,
+        settings: &Settings,
+    ) -> Result<Self, StartError> {
+        let energy = settings.start.energy_start;
+        if let Some(travel) = travel {
+            return Self::travelling_wave(system, modes, index, travel, energy);
+        }
+        let start = Self::from_linear_mode(system, modes, index, energy)?;
+        Ok(if settings.start.symmetry {
+            start
+        } else {
+            start.unrestricted()
+        })
+    }
+
+    /// Starts on the travelling wave of the degenerate pair that mode `index` belongs to
+    /// (docs/method.md §17): `x0 = a φ_cos`, `v0 = ±a ω φ_sin`, the linear motion
+    /// `a (φ_cos cos ωt ± φ_sin sin ωt)` whose pattern turns round the structure at constant
+    /// shape. Every elastic mode is an unknown (a travelling wave keeps no mirror symmetry),
+    /// the phase condition is the flow-orthogonal one (its motion is never at rest), and it is
+    /// shot over `T/q` with its sector shift ([`ShiftSymmetry::travelling_wave`]), which also
+    /// keeps Newton away from the standing waves of the same pair (docs/method.md eq. (83)).
+    pub fn travelling_wave<S: MechanicalSystem + ?Sized>(
+        system: &S,
+        modes: &[LinearMode],
+        index: usize,
+        travel: Travel,
+        energy: Option<f64>,
+    ) -> Result<Self, StartError> {
+        let not_travelling =
+            |why: &str| StartError::Invalid(format!("mode {index} has no travelling wave: {why}"));
+        let mode = modes.get(index).ok_or(StartError::NoSuchMode {
+            index,
+            count: modes.len(),
+        })?;
+        let cyclic = system
+            .cyclic_symmetry()
+            .ok_or_else(|| not_travelling("the model declares no cyclic symmetry"))?;
+        let label = mode
+            .cyclic
+            .filter(|c| c.pattern.is_some())
+            .ok_or_else(|| not_travelling("it is not a member of a degenerate pair"))?;
+        let partner = |wave: StandingWave| {
+            modes.iter().find(|m| {
+                m.cyclic.is_some_and(|c| {
+                    c.circles == label.circles
+                        && c.diameters == label.diameters
+                        && c.pattern == Some(wave)
+                })
+            })
+        };
+        let (Some(cos), Some(sin)) = (partner(StandingWave::Cos), partner(StandingWave::Sin))
+        else {
+            return Err(not_travelling("its partner standing wave was not found"));
+        };
+        let cos_index = modes
+            .iter()
+            .position(|m| std::ptr::eq(m, cos))
+            .expect("a member of modes");
+        let standing = Self::from_linear_mode(system, modes, cos_index, energy)?.unrestricted();
+        let n = system.dofs();
+        let omega = cos.frequency;
+        let amplitude = linalg::norm(&standing.z0[..n]) / linalg::norm(&cos.shape);
+        let sign = travel.sign();
+        let mut z0 = standing.z0.clone();
+        for (v, s) in z0[n..].iter_mut().zip(&sin.shape) {
+            *v = sign * amplitude * omega * s;
+        }
+        // The sector shift `s` for which the linear wave at `t = T/q` is `P z0`.
+        let linear_at = |t: f64| -> Vec<f64> {
+            let (c, s) = ((omega * t).cos(), (omega * t).sin());
+            let mut z = vec![0.0; 2 * n];
+            for i in 0..n {
+                z[i] = amplitude * (c * cos.shape[i] + sign * s * sin.shape[i]);
+                z[n + i] = amplitude * omega * (-s * cos.shape[i] + sign * c * sin.shape[i]);
+            }
+            z
+        };
+        let period = 2.0 * std::f64::consts::PI / omega;
+        let scale = linalg::norm(&z0);
+        let shift = ShiftSymmetry::travelling_wave(cyclic, label.diameters, |shift| {
+            let expected = linear_at(period / shift.divisions as f64);
+            let shifted = shift.apply(&z0);
+            let error: f64 = expected
+                .iter()
+                .zip(&shifted)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            error <= 1e-8 * scale
+        })
+        .ok_or_else(|| {
+            not_travelling(&format!(
+                "no sector shift maps its pattern onto itself a fraction of a period later ({} diameters, {} sectors)",
+                label.diameters, cyclic.sectors
+            ))
+        })?;
+        Ok(Self {
+            z0,
+            period,
+            omega,
+            half_period: false,
+            shift: Some(shift),
+            phase: Some(PhaseCondition::FlowOrthogonal),
+            ..standing
         })
     }
 
@@ -191,6 +310,7 @@ impl Start {
             z0: z0.to_vec(),
             period,
             half_period: !moving,
+            shift: None,
             pin: None,
             phase: moving.then_some(PhaseCondition::FlowOrthogonal),
             complete_basis: modes.len() >= n,
@@ -212,10 +332,13 @@ impl Start {
             omega_ref: self.omega,
             phase,
             amplitude_scale: self.amplitude_scale,
-            half_period: self.half_period
-                && settings.shooting.half_period
-                && phase == PhaseCondition::ZeroVelocity
-                && is_odd(system, self.amplitude_scale),
+            shift: self.shift.clone().or_else(|| {
+                (self.half_period
+                    && settings.shooting.half_period
+                    && phase == PhaseCondition::ZeroVelocity
+                    && is_odd(system, self.amplitude_scale))
+                .then(ShiftSymmetry::half_wave)
+            }),
             phase_reference: self.z0.clone(),
             complete_basis: self.complete_basis,
         };
