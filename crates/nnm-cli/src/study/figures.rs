@@ -320,3 +320,60 @@ pub(super) fn tongue(
     .write(&out.join("tongue-motions"))?;
     Ok(())
 }
+
+/// `fep-travelling`: each travelling wave beside its standing wave; `travelling-orbits`: the
+/// motions in the plane of the pair's standing waves.
+pub(super) fn travelling(
+    travelling: &super::travelling::Travelling,
+    backbones: &Backbones,
+    out: &Path,
+) -> Result<()> {
+    let mut series = Vec::new();
+    for w in &travelling.waves {
+        series.push(series_of(
+            &format!("({}) travelling", w.label),
+            &w.branch,
+            1.0,
+        ));
+        series.push(series_of(
+            &format!("({}) standing", w.label),
+            backbones.branch(&w.label),
+            1.0,
+        ));
+    }
+    FrequencyEnergyPlot {
+        title: "Travelling and standing waves".into(),
+        series,
+        frequency_label: "frequency (rad/s)".into(),
+        ..Default::default()
+    }
+    .write(&out.join("fep-travelling"))?;
+    let panels = travelling
+        .waves
+        .iter()
+        .map(|w| {
+            let line = |label: &str, xy: &[(f64, f64)]| Line {
+                label: label.into(),
+                xy: xy.to_vec(),
+                ..Default::default()
+            };
+            LinePlot {
+                title: format!("({}) at E = {:.3}", w.label, w.energy),
+                x_label: "q_cos".into(),
+                y_label: "q_sin".into(),
+                lines: vec![
+                    line("travelling", &w.orbits[0]),
+                    line("standing", &w.orbits[1]),
+                ],
+                ..Default::default()
+            }
+        })
+        .collect();
+    PlotGrid {
+        title: "Travelling and standing waves in the plane of their pair".into(),
+        columns: 2,
+        panels,
+    }
+    .write(&out.join("travelling-orbits"))?;
+    Ok(())
+}

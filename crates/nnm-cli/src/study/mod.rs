@@ -1,7 +1,7 @@
 //! The bladed-disk study of the paper (docs/method.md §11), end to end: linear modes, every backbone,
 //! similar vs nonsimilar modes, localization along (1,14), the bifurcations along the
-//! backbones, the 3:1 tongue between (0,6) and (1,12), the sensitivity / finite-difference cost
-//! comparison, figures and `report.md`.
+//! backbones, the travelling waves of (1,5) and (1,14), the 3:1 tongue between (0,6) and
+//! (1,12), the sensitivity / finite-difference cost comparison, figures and `report.md`.
 //!
 //! Numerics and output are kept apart so that rewording the report or redrawing a figure never
 //! touches a computation, and a computation can be read (and checked) without wading through
@@ -30,9 +30,11 @@ mod junction;
 mod localization;
 mod report;
 mod report_tongue;
+mod report_travelling;
 mod similarity;
 mod tables;
 mod tongue;
+mod travelling;
 
 /// What to run.
 pub struct StudyOptions {
@@ -41,8 +43,9 @@ pub struct StudyOptions {
     pub threads: Option<usize>,
 }
 
-/// Modes the sections are built on: the tongue's two ends and the localizing backbone.
-const REQUIRED_MODES: [&str; 3] = ["0,6", "1,12", "1,14"];
+/// Modes the sections are built on: the tongue's two ends, the localizing backbone and the
+/// travelling waves' pairs.
+const REQUIRED_MODES: [&str; 4] = ["0,6", "1,5", "1,12", "1,14"];
 /// Samples per period for time series and harmonics.
 const SAMPLES: usize = 256;
 
@@ -98,6 +101,16 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
         figures::bifurcations(switched, out)?;
     }
     report.bifurcations(&events);
+
+    // Travelling waves of (1,5) and (1,14) beside their standing waves.
+    let travelling = section(
+        &mut report,
+        out,
+        clock,
+        travelling::compute(structure, &modes, &backbones, settings, options, out),
+    )?;
+    figures::travelling(&travelling, &backbones, out)?;
+    report.travelling(&travelling);
 
     // 5. The 3:1 tongue, with sensitivities, checked against (1,12).
     let tongue_with =
