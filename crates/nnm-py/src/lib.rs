@@ -302,14 +302,15 @@ impl NativeModel {
     }
 
     /// The starting mode of the job's branch `name`, as written (`"n,d"` or an index), and its
-    /// standing-wave pattern: `None` for a branch switched from an event.
+    /// pattern (`cos`/`sin`, `travelling`...): `None` for a branch switched from an event.
     fn branch_mode(&self, name: &str) -> PyResult<Option<(String, Option<&'static str>)>> {
         let body = match self.branches.iter().find(|b| b.name == name) {
             Some(b) if b.from_event.is_some() => return Ok(None),
             Some(_) => self.job_branch(name, false)?,
             None => return self.job_branch(name, false).map(|_| None),
         };
-        Ok(Some((body.mode, wave_name(body.pattern))))
+        let pattern = body.travel.map(|t| t.name()).or(wave_name(body.pattern));
+        Ok(Some((body.mode, pattern)))
     }
 
     /// `"mass"` or `"stiffness"` as given: a 2-D array, or `(n, indptr, indices, data)` of
@@ -636,6 +637,7 @@ impl NativeModel {
         Ok(BranchBody {
             mode: job.mode.clone(),
             pattern: job.pattern,
+            travel: job.travel,
             settings: job.settings.clone(),
         })
     }

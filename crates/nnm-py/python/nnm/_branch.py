@@ -239,7 +239,8 @@ def backbone(
     """Follows the NNM branch that starts from a linear mode of ``model``.
 
     ``mode`` is an index into :func:`nnm.modes` (ascending frequency), or on cyclic models a
-    label ``(n, d)`` or ``"n,d"`` (``pattern="sin"`` for the other standing wave of a pair).
+    label ``(n, d)`` or ``"n,d"`` (``pattern="sin"`` for the other standing wave of a pair,
+    ``"travelling"`` / ``"travelling-backward"`` for its travelling waves, docs/method.md §17).
     The branch stops at ``energy_max``, at ``frequency_shift_max`` (``|ω/ω0 - 1|``; the last
     point lies on either limit to 1e-10) or after ``max_points``; at least one is required.
     Other keywords are the job file's settings with the same names, meanings and defaults
