@@ -493,6 +493,14 @@ mod tests {
         [(r, Some(theta)), (1.0 / r, Some(theta))]
     }
 
+    fn assert_sign_change(crossing: Crossing, a: &BranchPoint, b: &BranchPoint) {
+        let (fa, fb) = (
+            test_function(crossing, a).unwrap().0,
+            test_function(crossing, b).unwrap().0,
+        );
+        assert!(fa * fb < 0.0, "{crossing:?}: {fa} {fb}");
+    }
+
     #[test]
     fn each_kind_of_event_is_detected_and_its_test_function_changes_sign() {
         let other = (1.0, Some(2.0));
@@ -502,13 +510,7 @@ mod tests {
             point(1.0, &[(1.02, None), other]),
         );
         assert_eq!(detect(&a, &b), vec![Crossing::PlusOne { resting: 0 }]);
-        let fa = test_function(Crossing::PlusOne { resting: 0 }, &a)
-            .unwrap()
-            .0;
-        let fb = test_function(Crossing::PlusOne { resting: 0 }, &b)
-            .unwrap()
-            .0;
-        assert!(fa * fb < 0.0, "{fa} {fb}");
+        assert_sign_change(Crossing::PlusOne { resting: 0 }, &a, &b);
         // The same with a fold in the interval: the fold's own crossing.
         let b_fold = point(-1.0, &[(1.02, None), other]);
         assert_eq!(detect(&a, &b_fold), vec![Crossing::Fold]);
@@ -518,13 +520,7 @@ mod tests {
             point(1.0, &[(-1.05, None), other]),
         );
         assert_eq!(detect(&a, &b), vec![Crossing::MinusOne { resting: 0 }]);
-        let fa = test_function(Crossing::MinusOne { resting: 0 }, &a)
-            .unwrap()
-            .0;
-        let fb = test_function(Crossing::MinusOne { resting: 0 }, &b)
-            .unwrap()
-            .0;
-        assert!(fa * fb < 0.0, "{fa} {fb}");
+        assert_sign_change(Crossing::MinusOne { resting: 0 }, &a, &b);
         // A Krein collision: two pairs at angles 0.9 and 1.0 meet and leave as a quadruplet.
         let a = point(1.0, &[(1.0, Some(0.9)), (1.0, Some(1.0))]);
         let b = point(1.0, &quadruplet(1.05, 0.95));
@@ -559,13 +555,7 @@ mod tests {
         let b = point(1.0, &[(1.005, None), (1.005, None), other]);
         assert_eq!(detect(&a, &b), vec![Crossing::PlusOne { resting: 0 }]);
         assert_eq!(multiplicity(Crossing::PlusOne { resting: 0 }, &b), 2);
-        let fa = test_function(Crossing::PlusOne { resting: 0 }, &a)
-            .unwrap()
-            .0;
-        let fb = test_function(Crossing::PlusOne { resting: 0 }, &b)
-            .unwrap()
-            .0;
-        assert!(fa * fb < 0.0, "{fa} {fb}");
+        assert_sign_change(Crossing::PlusOne { resting: 0 }, &a, &b);
     }
 
     /// A pair resting at +1 (a rigid-body Jordan block under round-off: real on one side,
