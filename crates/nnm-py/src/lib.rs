@@ -408,15 +408,15 @@ impl NativeModel {
             Start::for_branch(structure, &modes, index, body.travel, &body.settings)
                 .map_err(value_error)
         })?;
-        let out = self.follow(py, start, &body.settings, callback)?;
         let mode = &modes[index];
-        out.set_item("mode_index", index)?;
-        out.set_item("mode_label", mode.cyclic.map(|_| mode.label()))?;
-        match body.travel {
-            Some(travel) => out.set_item("pattern", travel.name())?,
-            None => out.set_item("pattern", wave_name(mode.cyclic.and_then(|c| c.pattern)))?,
-        }
-        Ok(out)
+        self.follow(py, start, &body.settings, callback, |out| {
+            out.set_item("mode_index", index)?;
+            out.set_item("mode_label", mode.cyclic.map(|_| mode.label()))?;
+            match body.travel {
+                Some(travel) => out.set_item("pattern", travel.name()),
+                None => out.set_item("pattern", wave_name(mode.cyclic.and_then(|c| c.pattern))),
+            }
+        })
     }
 
     /// Follows the family through event `event` of a computed branch (`parent`, the
@@ -465,14 +465,14 @@ impl NativeModel {
             _ => numerical_error(py, format!("cannot switch at event {event}: {e}")),
         })?;
         let phase = switch.start.phase.unwrap_or(body.settings.shooting.phase);
-        let out = self.follow(py, switch.start, &body.settings, callback)?;
-        let from = PyDict::new(py);
-        from.set_item("event", event)?;
-        from.set_item("direction", direction)?;
-        from.set_item("kind", located.kind.name())?;
-        from.set_item("phase", nnm_io::job::phase_name(phase))?;
-        out.set_item("switched_from", from)?;
-        Ok(out)
+        self.follow(py, switch.start, &body.settings, callback, |out| {
+            let from = PyDict::new(py);
+            from.set_item("event", event)?;
+            from.set_item("direction", direction)?;
+            from.set_item("kind", located.kind.name())?;
+            from.set_item("phase", nnm_io::job::phase_name(phase))?;
+            out.set_item("switched_from", from)
+        })
     }
 
     /// The motion from `state0` over `period`, sampled at `samples + 1` equal times (the last
@@ -513,13 +513,16 @@ impl NativeModel {
 impl NativeModel {
     /// Follows the branch from `start` without the GIL, handing points to `callback`:
     /// the result dict of `branch_dict` with the stop, the failure (if any) as data, and the
-    /// native state a switch at one of its events needs.
+    /// native state a switch at one of its events needs. `describe` adds what the caller
+    /// knows of the branch (its mode, where it was switched from) — also to the partial
+    /// result that an exception (Ctrl-C, the callback's) carries as `partial`.
     fn follow<'py>(
         &self,
         py: Python<'py>,
         start: Start,
         settings: &nnm::Settings,
         callback: Option<Py<PyAny>>,
+        describe: impl FnOnce(&Bound<'py, PyDict>) -> PyResult<()>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let structure = &self.structure;
         let threading = py.import("threading")?;
@@ -544,9 +547,6 @@ impl NativeModel {
             })
         })?;
         let wall_time = clock.elapsed().as_secs_f64();
-        if let Some(error) = observer.error {
-            return Err(error);
-        }
         let out = PyDict::new(py);
         out.set_item("linear_frequency", start.omega)?;
         out.set_item("wall_time", wall_time)?;
@@ -591,6 +591,14 @@ impl NativeModel {
             events: branch.events,
         };
         out.set_item("native", Py::new(py, native)?)?;
+        describe(&out)?;
+        if let Some(error) = observer.error {
+            // Ctrl-C or the callback's own exception: raised with the points computed before
+            // it (`partial`, made a `Branch` by the Python side), so an interruption loses
+            // nothing.
+            error.value(py).setattr("partial", out)?;
+            return Err(error);
+        }
         Ok(out)
     }
 

@@ -23,11 +23,15 @@ def test_ctrl_c_stops_a_run_between_points_and_the_model_stays_usable() -> None:
     timer.start()
     try:
         # Without the check between points the run would reach energy_max and return.
-        with pytest.raises(KeyboardInterrupt):
+        with pytest.raises(KeyboardInterrupt) as interrupted:
             nnm.backbone(model, **LONG)
     finally:
         timer.cancel()
-    assert len(nnm.backbone(model, (1, 5), max_points=2, progress=False)) == 2
+    # The points computed before the interrupt come with it: the same as a run stopped there.
+    partial = interrupted.value.branch
+    assert len(partial) >= 1 and partial.stop_kind == "interrupted"
+    again = nnm.backbone(model, (1, 5), max_points=len(partial), progress=False)
+    assert list(again.energy) == list(partial.energy)
 
 
 def test_the_gil_is_released_while_the_library_computes() -> None:
@@ -66,8 +70,10 @@ def test_an_exception_in_the_callback_propagates() -> None:
     def callback(*point):
         raise LookupError("from the callback")
 
-    with pytest.raises(LookupError, match="from the callback"):
+    with pytest.raises(LookupError, match="from the callback") as raised:
         nnm.backbone(nnm.duffing(), 0, energy_max=10.0, callback=callback, progress=False)
+    # The first point was computed (the callback raised on it) and comes with the exception.
+    assert len(raised.value.branch) == 1 and raised.value.branch.energy[0] > 0
 
 
 def test_a_progress_bar_counts_the_points(capsys) -> None:

@@ -253,8 +253,9 @@ def backbone(
     model came from, with its settings (from ``mode`` instead of the branch's own when both
     are given: what a sweep does on a mistuned disk).
 
-    The computation runs without the GIL. Ctrl-C stops it between points (raising
-    ``KeyboardInterrupt``); ``callback(index, energy, frequency, stable)`` is called after
+    The computation runs without the GIL. Ctrl-C stops it between points, raising
+    ``KeyboardInterrupt`` whose ``branch`` attribute holds the points computed so far (as does
+    an exception raised by the callback); ``callback(index, energy, frequency, stable)`` is called after
     each point and stops the branch by returning ``False``; with tqdm installed a progress
     bar shows once a run takes more than a second (``progress=True``: at once, ``False``:
     never).
@@ -308,6 +309,13 @@ def _follow(
 
     try:
         raw = call(observe if (update is not None or callback is not None) else None)
+    except BaseException as error:
+        # Ctrl-C (KeyboardInterrupt) or the callback's exception: its `branch` holds the
+        # points computed before it.
+        partial = error.__dict__.pop("partial", None)
+        if isinstance(partial, dict):
+            error.branch = Branch(model, partial, parent)
+        raise
     finally:
         if bar is not None:
             bar.close()
