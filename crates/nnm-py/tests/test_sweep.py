@@ -225,3 +225,25 @@ def test_mistuning_is_refused_on_other_models(write_job, tmp_path: Path) -> None
     job = write_job('[model]\nfamily = "duffing"\n[[branch]]\nname = "d"\nmode = 0\nenergy_max = 1.0\n')
     with pytest.raises(ValueError, match="mistuning applies to a bladed disk"):
         sweeps.sweep(job, tmp_path / "o", samples=2, mistuning=[0.1], progress=False)
+
+
+def test_a_sample_that_fails_is_a_row_with_its_reason(write_job, tmp_path: Path, client) -> None:
+    """One Newton iteration a point cannot converge the first point: that sample is a row with
+    `status = failed` and the library's reason, counted in statistics.csv; the others go on,
+    and the command line exits 3."""
+    job = write_job(SMALL_DISK)
+    grid = {"settings.max_iterations": [1, 8]}
+    done = sweeps.sweep(job, tmp_path / "o", grid=grid, client=client, progress=False, figures=False)
+    assert (done.computed, done.failed) == (2, 1)
+    table = {float(r["settings.max_iterations"]): r for r in rows(tmp_path / "o")}
+    failed, ok = table[1.0], table[8.0]
+    assert failed["status"] == "failed" and failed["points"] == "0"
+    assert "did not converge" in failed["message"] and failed["stop"] == "first-point"
+    assert ok["status"] == "ok" and int(ok["points"]) > 2 and ok["message"] == ""
+    with (tmp_path / "o" / "statistics.csv").open(newline="") as f:
+        counts = {float(r["settings.max_iterations"]): r["failed"] for r in csv.DictReader(f)}
+    assert counts == {1.0: "1", 8.0: "0"}
+    command = [sys.executable, "-m", "nnm", "sweep", str(job), "--out", str(tmp_path / "cli"),
+               "--grid", "settings.max_iterations=1,8", "--workers", "1", "--no-figures", "--quiet"]  # fmt: skip
+    run = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 3, run.stderr

@@ -514,11 +514,11 @@ def _progress_line(row: dict[str, Any], done: int, total: int) -> str:
 
 
 def _groups(rows: list[dict[str, str]], grid_keys: list[str]) -> dict[tuple, list[dict[str, str]]]:
+    """The rows by branch, grid point and ``σ``, failed ones included."""
     groups: dict[tuple, list[dict[str, str]]] = {}
     for r in rows:
-        if r["status"] == "ok":
-            key = (r["branch"], *(float(r[k]) for k in grid_keys), float(r["sigma"]))
-            groups.setdefault(key, []).append(r)
+        key = (r["branch"], *(float(r[k]) for k in grid_keys), float(r["sigma"]))
+        groups.setdefault(key, []).append(r)
     return dict(sorted(groups.items()))
 
 
@@ -532,24 +532,20 @@ STATISTICS = [
 def _write_statistics(path: Path, rows: list[dict[str, str]], grid_keys: list[str]) -> None:
     """Per branch, grid point and ``σ``: the count of samples (and of failed ones) and the
     mean, standard deviation and 10/50/90% quantiles of each quantity of :data:`STATISTICS`
-    over the samples where it is defined (``localization_energy`` is not where a branch never
-    localizes)."""
+    over the samples that succeeded and where it is defined (``localization_energy`` is not
+    where a branch never localizes); a group whose samples all failed has counts only."""
     quantities = STATISTICS
     header = ["branch", *grid_keys, "sigma", "samples", "failed"]
     for q in quantities:
         header += [f"{q}_{s}" for s in ("mean", "std", "q10", "q50", "q90")]
-    failed: dict[tuple, int] = {}
-    for r in rows:
-        if r["status"] != "ok":
-            key = (r["branch"], *(float(r[k]) for k in grid_keys), float(r["sigma"]))
-            failed[key] = failed.get(key, 0) + 1
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(header)
         for key, group in _groups(rows, grid_keys).items():
-            line = [*map(_format, key), len(group), failed.get(key, 0)]
+            ok = [r for r in group if r["status"] == "ok"]
+            line = [*map(_format, key), len(group), len(group) - len(ok)]
             for q in quantities:
-                x = np.array([float(r[q]) for r in group])
+                x = np.array([float(r[q]) for r in ok])
                 x = x[np.isfinite(x)]
                 if len(x):
                     line += [_format(v) for v in (x.mean(), x.std(), *np.quantile(x, [0.1, 0.5, 0.9]))]
