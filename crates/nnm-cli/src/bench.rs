@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use nnm::integrate::IntegrationMethod;
 use nnm::model::{BladedDisk, CantileverBeam, Structure, VonKarmanBeam, duffing, two_dof};
 use nnm::modes::{find_mode, linear_modes};
-use nnm::shooting::{Formulation, JacobianMethod};
+use nnm::shooting::{Formulation, JacobianMethod, Travel};
 use nnm::{Branch, Settings, Start, continue_branch};
 
 struct Row {
@@ -157,6 +157,23 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
         &{
             let mut s = Settings::default();
             s.limits.frequency_shift_max = 0.10;
+            s
+        },
+    )?);
+    // The (1,5) travelling wave (docs/method.md §17): every mode unknown, shot over T/6.
+    let travelling = {
+        let modes = linear_modes(&disk)?;
+        let (index, _) = find_mode(&modes, "1,5", None).context("mode")?;
+        Start::travelling_wave(&disk, &modes, index, Travel::Forward, None)?
+    };
+    rows.extend(branch_rows(
+        "(1,5) travelling wave to +10%",
+        &disk,
+        &travelling,
+        &{
+            let mut s = Settings::default();
+            s.limits.frequency_shift_max = 0.10;
+            s.stability.events = false;
             s
         },
     )?);

@@ -203,7 +203,7 @@ impl Start {
             .filter(|c| c.pattern.is_some())
             .ok_or_else(|| not_travelling("it is not a member of a degenerate pair"))?;
         let partner = |wave: StandingWave| {
-            modes.iter().find(|m| {
+            modes.iter().enumerate().find(|(_, m)| {
                 m.cyclic.is_some_and(|c| {
                     c.circles == label.circles
                         && c.diameters == label.diameters
@@ -211,14 +211,11 @@ impl Start {
                 })
             })
         };
-        let (Some(cos), Some(sin)) = (partner(StandingWave::Cos), partner(StandingWave::Sin))
+        let (Some((cos_index, cos)), Some((_, sin))) =
+            (partner(StandingWave::Cos), partner(StandingWave::Sin))
         else {
             return Err(not_travelling("its partner standing wave was not found"));
         };
-        let cos_index = modes
-            .iter()
-            .position(|m| std::ptr::eq(m, cos))
-            .expect("a member of modes");
         let standing = Self::from_linear_mode(system, modes, cos_index, energy)?.unrestricted();
         let n = system.dofs();
         let omega = cos.frequency;
