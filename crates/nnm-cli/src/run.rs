@@ -9,7 +9,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use nnm::bifurcation::{Event, switch_branch};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, linear_modes};
-use nnm::shooting::EvaluationProgress;
+use nnm::shooting::{EvaluationProgress, Travel};
 use nnm::{Branch, BranchPoint, Observer, Start, StopReason, continue_branch_observed};
 use nnm_io::job::{BranchJob, EventStart, load_job, resolve_mode};
 use nnm_io::output::{BranchInfo, BranchWriter, SwitchedFrom, write_modes_csv};
@@ -405,7 +405,7 @@ pub fn make_start(
 /// One line per branch: points, energy and frequency reached, time, why it stopped.
 pub fn print_summary(outcomes: &[Outcome]) {
     println!(
-        "{:<16} {:>6} {:>7} {:>11} {:>11} {:>10} {:>8}  stop",
+        "{:<16} {:>8} {:>7} {:>11} {:>11} {:>10} {:>8}  stop",
         "branch", "mode", "points", "E_max", "f_max", "shift", "time_s"
     );
     for o in outcomes {
@@ -419,7 +419,7 @@ pub fn print_summary(outcomes: &[Outcome]) {
                     .map(|p| p.energy)
                     .fold(f64::NAN, f64::max);
                 println!(
-                    "{:<16} {:>6} {:>7} {:>11.4e} {:>11.6} {:>9.2}% {:>8.2}  {}",
+                    "{:<16} {:>8} {:>7} {:>11.4e} {:>11.6} {:>9.2}% {:>8.2}  {}",
                     o.info.name,
                     o.info.mode_label_or_index(),
                     branch.points.len(),
@@ -441,11 +441,17 @@ trait Label {
 }
 
 impl Label for BranchInfo {
+    /// The mode, with `→` for a forward travelling wave and `←` for a backward one.
     fn mode_label_or_index(&self) -> String {
-        if self.mode_label.is_empty() {
+        let mode = if self.mode_label.is_empty() {
             self.mode_index.to_string()
         } else {
             self.mode_label.clone()
+        };
+        match self.travel {
+            Some(Travel::Forward) => format!("{mode} →"),
+            Some(Travel::Backward) => format!("{mode} ←"),
+            None => mode,
         }
     }
 }
