@@ -65,3 +65,6 @@ def test_travelling_needs_a_pair_and_the_dense_formulation(disk) -> None:
         nnm.backbone(disk, (1, 0), pattern="travelling", max_points=2, progress=False)
     with pytest.raises(ValueError, match="pattern"):
         nnm.backbone(disk, (1, 5), pattern="rotating", max_points=2, progress=False)
+    with pytest.raises(ValueError, match="dense formulation"):
+        nnm.backbone(disk, (1, 5), pattern="travelling", formulation="matrix-free", max_points=2,
+                     progress=False)

@@ -165,6 +165,11 @@ impl Start {
     ) -> Result<Self, StartError> {
         let energy = settings.start.energy_start;
         if let Some(travel) = travel {
+            if settings.shooting.formulation == super::Formulation::MatrixFree {
+                return Err(StartError::Invalid(
+                    "travelling waves are shot with the dense formulation; set formulation = \"dense\" or \"auto\"".into(),
+                ));
+            }
             return Self::travelling_wave(system, modes, index, travel, energy);
         }
         let start = Self::from_linear_mode(system, modes, index, energy)?;
@@ -189,12 +194,16 @@ impl Start {
         travel: Travel,
         energy: Option<f64>,
     ) -> Result<Self, StartError> {
-        let not_travelling =
-            |why: &str| StartError::Invalid(format!("mode {index} has no travelling wave: {why}"));
         let mode = modes.get(index).ok_or(StartError::NoSuchMode {
             index,
             count: modes.len(),
         })?;
+        let name = match mode.label() {
+            label if label.is_empty() => index.to_string(),
+            label => format!("({label})"),
+        };
+        let not_travelling =
+            |why: &str| StartError::Invalid(format!("mode {name} has no travelling wave: {why}"));
         let cyclic = system
             .cyclic_symmetry()
             .ok_or_else(|| not_travelling("the model declares no cyclic symmetry"))?;
