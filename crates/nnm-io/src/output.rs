@@ -239,7 +239,7 @@ impl std::fmt::Display for Number {
 }
 
 /// Columns of `<name>.csv`, in order.
-pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs,label";
+pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs,label,frequency_hz,frequency_ratio";
 
 /// Columns of `<name>.events.csv`, in order.
 pub const EVENTS_CSV_HEADER: &str = "index,type,energy,frequency_rad_s,period_s,multiplier_re,multiplier_im,multiplier_modulus,multiplicity,after_point,arclength_uncertainty,converged";
@@ -324,7 +324,7 @@ impl BranchWriter {
     pub fn write_point(&mut self, p: &BranchPoint) -> Result<(), OutputError> {
         writeln!(
             self.csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             p.index,
             Number(p.energy),
             Number(p.frequency),
@@ -336,7 +336,9 @@ impl BranchWriter {
             Number(p.step),
             Number(p.full_period_residual),
             p.floquet.unstable_pairs,
-            p.label.map_or("", |l| l.name())
+            p.label.map_or("", |l| l.name()),
+            Number(p.frequency / std::f64::consts::TAU),
+            Number(p.frequency / self.info.linear_frequency_rad_s)
         )
         .map_err(output_error(&self.csv_path))?;
         let record = serde_json::to_string(&PointRecord::from(p)).expect("serialisable");

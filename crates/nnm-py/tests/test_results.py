@@ -54,8 +54,13 @@ def test_to_pandas_has_the_columns_of_the_csv_file(two_dof_branch) -> None:
     assert list(frame.columns) == [
         "index", "energy", "frequency_rad_s", "period_s", "stable", "max_floquet_modulus",
         "relative_residual", "iterations", "step", "full_period_residual", "unstable_pairs", "label",
+        "frequency_hz", "frequency_ratio",
     ]
     np.testing.assert_array_equal(frame["energy"], two_dof_branch.energy)
+    b = two_dof_branch
+    np.testing.assert_allclose(frame["frequency_hz"] * 2 * np.pi, b.frequency, rtol=1e-15)
+    np.testing.assert_allclose(frame["frequency_ratio"] * b.linear_frequency, b.frequency, rtol=1e-15)
+    assert abs(frame["frequency_ratio"][0] - 1) < 1e-3  # the first point is near the linear limit
 
 
 def test_the_frequency_energy_plot_dashes_unstable_parts(two_dof_branch) -> None:

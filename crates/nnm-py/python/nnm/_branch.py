@@ -64,6 +64,8 @@ _CSV_COLUMNS = [
     ("full_period_residual", "full_period_residual"),
     ("unstable_pairs", "unstable_pairs"),
     ("label", "label"),
+    ("frequency_hz", "frequency_hz"),
+    ("frequency_ratio", "frequency_ratio"),
 ]
 
 
@@ -153,6 +155,16 @@ class Branch:
     def __repr__(self) -> str:
         mode = self.mode if self.mode_label is None else self.mode_label
         return f"<nnm.Branch of mode {mode}: {len(self)} points, {len(self.events)} events, {self.stop}>"
+
+    @property
+    def frequency_hz(self) -> np.ndarray:
+        """``frequency / 2π`` per point (Hz when the model's time unit is the second)."""
+        return self.frequency / (2.0 * np.pi)
+
+    @property
+    def frequency_ratio(self) -> np.ndarray:
+        """``frequency / linear_frequency`` per point (``ω/ω0``)."""
+        return self.frequency / self.linear_frequency
 
     @property
     def frequency_shift(self) -> np.ndarray:
