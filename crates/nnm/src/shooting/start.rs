@@ -94,10 +94,7 @@ impl Start {
         index: usize,
         energy: Option<f64>,
     ) -> Result<Self, StartError> {
-        let mode = modes.get(index).ok_or(StartError::NoSuchMode {
-            index,
-            count: modes.len(),
-        })?;
+        let mode = mode_at(modes, index)?;
         if mode.rigid {
             return Err(StartError::RigidMode(index));
         }
@@ -194,10 +191,7 @@ impl Start {
         travel: Travel,
         energy: Option<f64>,
     ) -> Result<Self, StartError> {
-        let mode = modes.get(index).ok_or(StartError::NoSuchMode {
-            index,
-            count: modes.len(),
-        })?;
+        let mode = mode_at(modes, index)?;
         let name = match mode.label() {
             label if label.is_empty() => index.to_string(),
             label => format!("({label})"),
@@ -371,6 +365,14 @@ impl Start {
         };
         (u0, pin)
     }
+}
+
+/// Mode `index` of `modes`, or why there is none.
+fn mode_at(modes: &[LinearMode], index: usize) -> Result<&LinearMode, StartError> {
+    modes.get(index).ok_or(StartError::NoSuchMode {
+        index,
+        count: modes.len(),
+    })
 }
 
 /// `M B` for the columns of `basis`.
