@@ -27,14 +27,12 @@ impl Report {
                 .map(|p| p.full_period_residual)
                 .fold(0.0f64, f64::max);
             table.push_str(&format!(
-                "| ({}) | {} | {:.4} | {:.6} | {} | {stable} of {} | {} | {residual:.1e} | {:.1} s |\n",
+                "| ({}) | {} | {:.4} | {} | {} | {stable} of {} | {} | {residual:.1e} | {:.1} s |\n",
                 w.label,
                 b.points.len(),
                 w.energy,
-                w.frequencies.0,
-                w.frequencies
-                    .1
-                    .map_or("— (folds)".into(), |f| format!("{f:.6}")),
+                folds_or(w.frequencies.0),
+                folds_or(w.frequencies.1),
                 b.points.len(),
                 b.events.len(),
                 w.seconds,
@@ -44,7 +42,7 @@ impl Report {
         let lower: Vec<String> = travelling
             .waves
             .iter()
-            .filter(|w| w.frequencies.1.is_some_and(|s| w.frequencies.0 < s))
+            .filter(|w| matches!(w.frequencies, (Some(t), Some(s)) if t < s))
             .map(|w| format!("({})", w.label))
             .collect();
         if !lower.is_empty() {
@@ -73,4 +71,9 @@ impl Report {
              line.",
         );
     }
+}
+
+/// A frequency, or a dash where the branch folds at that energy.
+fn folds_or(frequency: Option<f64>) -> String {
+    frequency.map_or("— (folds)".into(), |f| format!("{f:.6}"))
 }

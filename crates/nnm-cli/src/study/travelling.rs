@@ -27,8 +27,9 @@ pub(super) struct Wave {
     /// Energy at which the two are compared: the travelling wave's last point, or the
     /// standing wave's last energy if lower.
     pub energy: f64,
-    /// Frequencies there (rad/s): travelling, standing (`None` if the standing wave folds there).
-    pub frequencies: (f64, Option<f64>),
+    /// Frequencies there (rad/s): travelling, standing (`None` where a branch folds there:
+    /// its frequency at that energy is not unique).
+    pub frequencies: (Option<f64>, Option<f64>),
     /// The motions over one period at `energy` in the pair's plane, `(q_cos, q_sin)` with
     /// `q = φᵀ M x` (mass-normalised modes): the travelling wave's and the standing wave's.
     pub orbits: [Vec<(f64, f64)>; 2],
@@ -73,8 +74,10 @@ pub(super) fn compute(
         let last = branch.points.last().expect("a branch has points");
         let standing_last = standing.points.last().expect("a branch has points");
         let energy = last.energy.min(standing_last.energy);
-        let travelling_frequency = frequency_at(&branch, energy).unwrap_or(last.frequency);
-        let frequencies = (travelling_frequency, frequency_at(standing, energy));
+        let frequencies = (
+            frequency_at(&branch, energy),
+            frequency_at(standing, energy),
+        );
         let pair = |wave| find_mode(modes, label, Some(wave)).expect("a pair").1;
         let (cos, sin) = (pair(StandingWave::Cos), pair(StandingWave::Sin));
         let orbit = |point: &BranchPoint| plane_orbit(structure, point, cos, sin);
