@@ -2,6 +2,7 @@
 
 mod beam_study;
 mod bench;
+mod fep;
 mod interrupt;
 mod out_dir;
 mod progress;

@@ -6,6 +6,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
+use nnm::analysis::RegimeKind;
 use nnm::bifurcation::{Event, switch_branch};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, linear_modes};
@@ -13,7 +14,6 @@ use nnm::shooting::{EvaluationProgress, Travel};
 use nnm::{Branch, BranchPoint, Observer, Start, StopReason, continue_branch_observed};
 use nnm_io::job::{BranchJob, EventStart, load_job, resolve_mode};
 use nnm_io::output::{BranchInfo, BranchWriter, SwitchedFrom, write_modes_csv};
-use nnm_plot::{FrequencyEnergyPlot, Marker, Series, SeriesPoint};
 use rayon::prelude::*;
 
 use crate::out_dir::{OutDir, foreign_branches};
@@ -105,6 +105,7 @@ pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<Branc
                 linear_frequency_rad_s: mode.frequency,
                 symmetry: None,
                 switched_from: None,
+                output_dofs: Vec::new(),
             },
         });
     }
@@ -135,7 +136,7 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     write_modes_csv(&out.join("modes.csv"), &modes)?;
     let clock = Instant::now();
     let outcomes = compute_all(&job.structure, &modes, requests, out, threads, quiet)?;
-    plot(&outcomes, &out.join("fep"), "Frequency-energy plot")?;
+    crate::fep::plot(&outcomes, &modes, &out.join("fep"), "Frequency-energy plot")?;
     let early = stopped_early(&outcomes);
     let verdict = unfinished(&outcomes, &early);
     // Quiet means errors only: nothing on a successful run. When a branch failed, stopped
@@ -144,7 +145,7 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
         eprintln!();
     }
     if !quiet || verdict.is_err() {
-        print_summary(&outcomes);
+        print_summary(&outcomes, &modes);
         println!(
             "wall time {:.2} s; results in {}{}",
             clock.elapsed().as_secs_f64(),
@@ -397,13 +398,15 @@ pub fn make_start(
         }
     };
     info.symmetry = start.symmetry;
+    info.output_dofs = start.output_dofs(&job.settings);
     // A period-doubled family is measured against half the parent's frequency.
     info.linear_frequency_rad_s = start.omega;
     Ok(start)
 }
 
-/// One line per branch: points, energy and frequency reached, time, why it stopped.
-pub fn print_summary(outcomes: &[Outcome]) {
+/// One line per branch: points, energy and frequency reached, time, why it stopped; then,
+/// for each branch that entered an internal-resonance tongue or left its family, where.
+pub fn print_summary(outcomes: &[Outcome], modes: &[LinearMode]) {
     println!(
         "{:<16} {:>8} {:>7} {:>11} {:>11} {:>10} {:>8}  stop",
         "branch", "mode", "points", "E_max", "f_max", "shift", "time_s"
@@ -434,6 +437,82 @@ pub fn print_summary(outcomes: &[Outcome]) {
             Err(e) => println!("{:<16} failed: {e:#}", o.info.name),
         }
     }
+    for o in outcomes {
+        let Ok(branch) = &o.result else { continue };
+        let notes = regime_notes(&branch.points, o.info.linear_frequency_rad_s, modes);
+        if notes.is_empty() {
+            continue;
+        }
+        println!("{}:", o.info.name);
+        let shown = notes.len().min(MAX_REGIME_NOTES);
+        for note in &notes[..shown] {
+            println!("  {note}");
+        }
+        if notes.len() > shown {
+            println!(
+                "  ... {} more changes (the regime column of {}.csv has every point)",
+                notes.len() - shown,
+                o.info.name
+            );
+        }
+    }
+}
+
+/// Regime changes listed per branch in the summary, at most.
+const MAX_REGIME_NOTES: usize = 6;
+
+/// Where a branch changed regime (docs/method.md eq. (86)): one line at the first point of
+/// each stretch in a tongue or on another family (the partner named by its `(n,d)` label or
+/// index), and where it came back to its backbone.
+pub fn regime_notes(points: &[BranchPoint], linear: f64, modes: &[LinearMode]) -> Vec<String> {
+    let name = |mode: usize| match modes.get(mode).map(LinearMode::label) {
+        Some(label) if !label.is_empty() => format!("({label})"),
+        _ => format!("mode {mode}"),
+    };
+    let mut notes = Vec::new();
+    let mut previous: Option<(RegimeKind, Option<usize>)> = None;
+    for p in points {
+        let Some(regime) = &p.regime else { continue };
+        let partner = regime
+            .partner
+            .filter(|_| regime.kind != RegimeKind::Backbone);
+        let key = (regime.kind, partner.map(|c| c.mode));
+        let first = previous.is_none();
+        if previous == Some(key) || (first && regime.kind == RegimeKind::Backbone) {
+            previous = Some(key);
+            continue;
+        }
+        previous = Some(key);
+        let ratio = regime
+            .ratio
+            .map_or(String::new(), |(m, n)| format!("{m}:{n}"));
+        let what = match (regime.kind, partner) {
+            (RegimeKind::Tongue, Some(c)) if regime.ratio == Some((1, 1)) => format!(
+                "in 1:1 internal resonance with the near-degenerate {} ({:.0}% of the energy)",
+                name(c.mode),
+                100.0 * c.share
+            ),
+            (RegimeKind::Tongue, Some(c)) => format!(
+                "in a {ratio} internal-resonance tongue with {} ({:.0}% of the energy at {}ω)",
+                name(c.mode),
+                100.0 * c.share,
+                c.harmonic
+            ),
+            (RegimeKind::OtherFamily, Some(c)) => format!(
+                "left its family for that of {} at {}ω ({ratio})",
+                name(c.mode),
+                c.harmonic
+            ),
+            _ => "back on its backbone".into(),
+        };
+        notes.push(format!(
+            "point {:>3} (E = {:.4e}, {:+.2}%): {what}",
+            p.index,
+            p.energy,
+            100.0 * (p.frequency / linear - 1.0)
+        ));
+    }
+    notes
 }
 
 trait Label {
@@ -649,73 +728,4 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<&'static str>> Observer for &mut Writ
             )
         })
     }
-}
-
-/// Events as labelled dots on a frequency–energy plot: F fold, BP branch point, PD period
-/// doubling, NS Krein collision.
-pub fn event_markers<'a>(events: impl Iterator<Item = &'a Event>) -> Vec<Marker> {
-    events
-        .map(|e| Marker {
-            x: e.point.energy,
-            y: e.point.frequency,
-            label: e.kind.abbreviation().into(),
-        })
-        .collect()
-}
-
-/// One frequency–energy plot of every branch that has points: `<stem>.png` and `<stem>.svg`.
-pub fn plot(outcomes: &[Outcome], stem: &Path, title: &str) -> Result<()> {
-    if let Some(fep) = frequency_energy_plot(outcomes, title, 1.0) {
-        fep.write(stem)?;
-    }
-    Ok(())
-}
-
-/// The frequency–energy plot of every branch that has points, one series per branch (labelled
-/// with its name) and its events marked, frequencies multiplied by `scale` (1: rad/s, labelled
-/// so); `None` when no branch has a point.
-pub fn frequency_energy_plot(
-    outcomes: &[Outcome],
-    title: &str,
-    scale: f64,
-) -> Option<FrequencyEnergyPlot> {
-    let series: Vec<Series> = outcomes
-        .iter()
-        .filter_map(|o| {
-            let branch = o.result.as_ref().ok()?;
-            Some(Series {
-                label: o.info.name.clone(),
-                points: branch
-                    .points
-                    .iter()
-                    .map(|p| SeriesPoint {
-                        energy: p.energy,
-                        frequency: p.frequency * scale,
-                        stable: p.floquet.stable,
-                    })
-                    .collect(),
-                ..Default::default()
-            })
-        })
-        .filter(|s| !s.points.is_empty())
-        .collect();
-    if series.is_empty() {
-        return None;
-    }
-    let mut markers = event_markers(
-        outcomes
-            .iter()
-            .filter_map(|o| o.result.as_ref().ok())
-            .flat_map(|branch| &branch.events),
-    );
-    for m in &mut markers {
-        m.y *= scale;
-    }
-    Some(FrequencyEnergyPlot {
-        title: title.into(),
-        series,
-        frequency_label: "frequency (rad/s)".into(),
-        markers,
-        ..Default::default()
-    })
 }

@@ -29,6 +29,7 @@
 
 use std::path::{Path, PathBuf};
 
+use nnm::MechanicalSystem;
 use nnm::Settings;
 use nnm::model::{
     BladedDisk, CantileverBeam, CyclicSymmetry, FixedDofs, Matrix, ModelError, NonlinearElement,
@@ -459,7 +460,7 @@ fn job_from_file(file: JobFile, path: &Path) -> Result<Job, JobError> {
     let default_settings =
         settings_from(defaults.clone()).map_err(|m| invalid(format!("[settings]: {m}")))?;
     default_settings
-        .validate()
+        .validate_for(structure.dofs())
         .map_err(|e| invalid(format!("[settings]: {e}")))?;
     let mut branches = Vec::new();
     for (k, mut table) in file.branch.into_iter().enumerate() {
@@ -507,6 +508,9 @@ fn job_from_file(file: JobFile, path: &Path) -> Result<Job, JobError> {
             settings,
         } = branch_body(table, &defaults, from_event.is_some())
             .map_err(|m| invalid(context(&m)))?;
+        settings
+            .validate_for(structure.dofs())
+            .map_err(|e| invalid(context(&e.to_string())))?;
         branches.push(BranchJob {
             name,
             mode,

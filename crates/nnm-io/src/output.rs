@@ -8,9 +8,10 @@
 //! `"status": "running"` until the branch ends and the document is rewritten complete.
 
 use std::fs::File;
-use std::io::{BufWriter, Seek, SeekFrom, Write};
+use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
+use nnm::analysis::{ModalComponent, Regime};
 use nnm::bifurcation::Event;
 use nnm::modes::{LinearMode, StandingWave};
 use nnm::shooting::Travel;
@@ -35,30 +36,59 @@ fn output_error(path: &Path) -> impl Fn(std::io::Error) -> OutputError + '_ {
     }
 }
 
-/// Writes `modes.csv`: `index,frequency_rad_s,label,pattern,rigid` (label `"n,d"` for cyclic
-/// models, empty otherwise; pattern `cos`/`sin` for members of a degenerate pair).
-pub fn write_modes_csv(path: &Path, modes: &[LinearMode]) -> Result<(), OutputError> {
-    let err = output_error(path);
-    let mut out = BufWriter::new(File::create(path).map_err(&err)?);
-    writeln!(out, "index,frequency_rad_s,label,pattern,rigid").map_err(&err)?;
-    for (index, mode) in modes.iter().enumerate() {
-        let label = mode.label();
-        let label = if label.is_empty() {
-            String::new()
-        } else {
-            format!("\"{label}\"")
-        };
-        writeln!(
-            out,
-            "{index},{},{label},{},{}",
-            Number(mode.frequency),
-            pattern_name(mode.cyclic.and_then(|c| c.pattern)),
-            mode.rigid
-        )
-        .map_err(&err)?;
+fn csv_error(path: &Path) -> impl Fn(csv::Error) -> OutputError + '_ {
+    move |e| OutputError {
+        path: path.to_owned(),
+        reason: match e.into_kind() {
+            csv::ErrorKind::Io(e) => io_reason(&e),
+            other => format!("{other:?}"),
+        },
     }
-    out.flush().map_err(&err)
 }
+
+/// Writes a CSV table at once: `header`, then `rows` (each as many fields as the header; the
+/// `csv` crate quotes a field where it must). The study's tables use it; branch files, which
+/// grow point by point, have [`BranchWriter`].
+pub fn write_table<R, F>(path: &Path, header: &[&str], rows: R) -> Result<(), OutputError>
+where
+    R: IntoIterator<Item = Vec<F>>,
+    F: AsRef<[u8]>,
+{
+    let err = csv_error(path);
+    let mut out = csv::Writer::from_path(path).map_err(&err)?;
+    out.write_record(header).map_err(&err)?;
+    for row in rows {
+        out.write_record(&row).map_err(&err)?;
+    }
+    out.flush().map_err(output_error(path))
+}
+
+/// A float as the result files write it (shortest round-trip form, scientific for very small
+/// or large magnitudes).
+pub fn number(value: f64) -> String {
+    Number(value).to_string()
+}
+
+/// Writes `modes.csv`: `index,frequency_rad_s,label,pattern,rigid,frequency_hz` (label `n,d`
+/// for cyclic models, empty otherwise; pattern `cos`/`sin` for members of a degenerate pair).
+/// Every column is described in docs/output.md.
+pub fn write_modes_csv(path: &Path, modes: &[LinearMode]) -> Result<(), OutputError> {
+    let header: Vec<&str> = MODES_CSV_HEADER.split(',').collect();
+    let rows = modes.iter().enumerate().map(|(index, mode)| {
+        vec![
+            index.to_string(),
+            number(mode.frequency),
+            mode.label(),
+            pattern_name(mode.cyclic.and_then(|c| c.pattern)).to_string(),
+            mode.rigid.to_string(),
+            number(mode.frequency / std::f64::consts::TAU),
+        ]
+    });
+    write_table(path, &header, rows)
+}
+
+/// Columns of `modes.csv`, in order.
+pub const MODES_CSV_HEADER: &str = "index,frequency_rad_s,label,pattern,rigid,frequency_hz";
 
 fn pattern_name(pattern: Option<StandingWave>) -> &'static str {
     match pattern {
@@ -85,6 +115,8 @@ pub struct BranchInfo {
     /// For a branch switched onto at an event of another: that branch and event.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub switched_from: Option<SwitchedFrom>,
+    /// The dofs whose peak displacements the `peak_x<d>` columns hold.
+    pub output_dofs: Vec<usize>,
 }
 
 /// Where a switched branch came from.
@@ -132,6 +164,12 @@ struct PointRecord<'a> {
     /// exactly on a value; absent for a continuation step.
     #[serde(skip_serializing_if = "Option::is_none")]
     label: Option<nnm::shooting::PointLabel>,
+    /// Peak displacement over the period of each of the branch's `output_dofs`.
+    peak_displacements: &'a [f64],
+    /// Backbone, tongue or other family, with the partner mode (docs/output.md).
+    regime: Option<&'a Regime>,
+    /// The largest (mode, harmonic) components of the motion by share of its energy.
+    modal_content: &'a [ModalComponent],
 }
 
 impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
@@ -159,6 +197,9 @@ impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
             unstable_pairs: p.floquet.unstable_pairs,
             energy_slope: p.energy_slope,
             label: p.label,
+            peak_displacements: &p.peak_displacements,
+            regime: p.regime.as_ref(),
+            modal_content: &p.content,
         }
     }
 }
@@ -238,34 +279,82 @@ impl std::fmt::Display for Number {
     }
 }
 
-/// Columns of `<name>.csv`, in order.
-pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs,label,frequency_hz,frequency_ratio";
+/// Columns of `<name>.csv`, in order, before one `peak_x<d>` column per output dof (see
+/// [`branch_csv_header`]; docs/output.md describes each).
+pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs,label,frequency_hz,frequency_ratio,regime,partner_mode,partner_harmonic,partner_share,ratio";
+
+/// The header of `<name>.csv` for a branch with these output dofs.
+pub fn branch_csv_header(output_dofs: &[usize]) -> Vec<String> {
+    BRANCH_CSV_HEADER
+        .split(',')
+        .map(str::to_string)
+        .chain(output_dofs.iter().map(|d| format!("peak_x{d}")))
+        .collect()
+}
 
 /// Columns of `<name>.events.csv`, in order.
 pub const EVENTS_CSV_HEADER: &str = "index,type,energy,frequency_rad_s,period_s,multiplier_re,multiplier_im,multiplier_modulus,multiplicity,after_point,arclength_uncertainty,converged";
 
+/// A CSV file written a record at a time, each flushed to the OS before the call returns.
+struct CsvFile {
+    writer: csv::Writer<File>,
+    path: PathBuf,
+}
+
+impl CsvFile {
+    fn create(path: PathBuf, header: &[String]) -> Result<Self, OutputError> {
+        let writer = csv::Writer::from_path(&path).map_err(csv_error(&path))?;
+        let mut file = Self { writer, path };
+        file.append(header)?;
+        Ok(file)
+    }
+
+    fn append(&mut self, record: &[String]) -> Result<(), OutputError> {
+        self.writer
+            .write_record(record)
+            .map_err(csv_error(&self.path))?;
+        self.writer.flush().map_err(output_error(&self.path))
+    }
+}
+
+/// The regime columns of a point: `regime,partner_mode,partner_harmonic,partner_share,ratio`.
+fn regime_fields(regime: Option<&Regime>) -> [String; 5] {
+    let Some(r) = regime else {
+        return Default::default();
+    };
+    let partner = r.partner;
+    [
+        r.kind.name().to_string(),
+        partner.map_or(String::new(), |p| p.mode.to_string()),
+        partner.map_or(String::new(), |p| p.harmonic.to_string()),
+        partner.map_or(String::new(), |p| Number(p.share).to_string()),
+        r.ratio.map_or(String::new(), |(m, n)| format!("{m}:{n}")),
+    ]
+}
+
 /// Streams one branch to `<dir>/<name>.csv` and `<dir>/<name>.json`.
 pub struct BranchWriter {
     info: BranchInfo,
-    csv: File,
-    csv_path: PathBuf,
+    csv: CsvFile,
     json: File,
     json_path: PathBuf,
-    events_csv: File,
-    events_path: PathBuf,
+    events_csv: CsvFile,
     points: usize,
     events: usize,
 }
 
 impl BranchWriter {
     pub fn create(dir: &Path, info: BranchInfo) -> Result<Self, OutputError> {
-        let csv_path = dir.join(format!("{}.csv", info.name));
+        let csv = CsvFile::create(
+            dir.join(format!("{}.csv", info.name)),
+            &branch_csv_header(&info.output_dofs),
+        )?;
+        let events_header: Vec<String> = EVENTS_CSV_HEADER.split(',').map(String::from).collect();
+        let events_csv = CsvFile::create(
+            dir.join(format!("{}.events.csv", info.name)),
+            &events_header,
+        )?;
         let json_path = dir.join(format!("{}.json", info.name));
-        let mut csv = File::create(&csv_path).map_err(output_error(&csv_path))?;
-        writeln!(csv, "{BRANCH_CSV_HEADER}").map_err(output_error(&csv_path))?;
-        let events_path = dir.join(format!("{}.events.csv", info.name));
-        let mut events_csv = File::create(&events_path).map_err(output_error(&events_path))?;
-        writeln!(events_csv, "{EVENTS_CSV_HEADER}").map_err(output_error(&events_path))?;
         let mut json = File::create(&json_path).map_err(output_error(&json_path))?;
         let document = Document {
             info: &info,
@@ -283,11 +372,9 @@ impl BranchWriter {
         Ok(Self {
             info,
             csv,
-            csv_path,
             json,
             json_path,
             events_csv,
-            events_path,
             points: 0,
             events: 0,
         })
@@ -296,51 +383,51 @@ impl BranchWriter {
     /// Appends one located event to `<name>.events.csv` (flushed before returning).
     pub fn write_event(&mut self, e: &Event) -> Result<(), OutputError> {
         let (re, im) = e.multiplier;
-        writeln!(
-            self.events_csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
-            self.events,
-            e.kind.name(),
-            Number(e.point.energy),
-            Number(e.point.frequency),
-            Number(e.point.period),
-            Number(re),
-            Number(im),
-            Number(re.hypot(im)),
-            e.multiplicity,
-            e.after,
-            Number(e.arclength_uncertainty),
-            e.converged
-        )
-        .map_err(output_error(&self.events_path))?;
-        self.events_csv
-            .flush()
-            .map_err(output_error(&self.events_path))?;
+        let record = [
+            self.events.to_string(),
+            e.kind.name().to_string(),
+            Number(e.point.energy).to_string(),
+            Number(e.point.frequency).to_string(),
+            Number(e.point.period).to_string(),
+            Number(re).to_string(),
+            Number(im).to_string(),
+            Number(re.hypot(im)).to_string(),
+            e.multiplicity.to_string(),
+            e.after.to_string(),
+            Number(e.arclength_uncertainty).to_string(),
+            e.converged.to_string(),
+        ];
+        self.events_csv.append(&record)?;
         self.events += 1;
         Ok(())
     }
 
     /// Appends one converged point to both files (flushed to the OS before returning).
     pub fn write_point(&mut self, p: &BranchPoint) -> Result<(), OutputError> {
-        writeln!(
-            self.csv,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            p.index,
-            Number(p.energy),
-            Number(p.frequency),
-            Number(p.period),
-            p.floquet.stable,
-            Number(p.floquet.max_modulus),
-            Number(p.relative_residual),
-            p.iterations,
-            Number(p.step),
-            Number(p.full_period_residual),
-            p.floquet.unstable_pairs,
-            p.label.map_or("", |l| l.name()),
-            Number(p.frequency / std::f64::consts::TAU),
-            Number(p.frequency / self.info.linear_frequency_rad_s)
-        )
-        .map_err(output_error(&self.csv_path))?;
+        let mut record = vec![
+            p.index.to_string(),
+            Number(p.energy).to_string(),
+            Number(p.frequency).to_string(),
+            Number(p.period).to_string(),
+            p.floquet.stable.to_string(),
+            Number(p.floquet.max_modulus).to_string(),
+            Number(p.relative_residual).to_string(),
+            p.iterations.to_string(),
+            Number(p.step).to_string(),
+            Number(p.full_period_residual).to_string(),
+            p.floquet.unstable_pairs.to_string(),
+            p.label.map_or("", |l| l.name()).to_string(),
+            Number(p.frequency / std::f64::consts::TAU).to_string(),
+            Number(p.frequency / self.info.linear_frequency_rad_s).to_string(),
+        ];
+        record.extend(regime_fields(p.regime.as_ref()));
+        // A point without a measured motion (none today) leaves the peaks empty.
+        record.extend((0..self.info.output_dofs.len()).map(|k| {
+            p.peak_displacements
+                .get(k)
+                .map_or(String::new(), |a| Number(*a).to_string())
+        }));
+        self.csv.append(&record)?;
         let record = serde_json::to_string(&PointRecord::from(p)).expect("serialisable");
         let err = output_error(&self.json_path);
         // The document ends with `]}`: overwrite that with `[,]point]}`.

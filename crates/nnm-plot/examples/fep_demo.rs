@@ -95,6 +95,7 @@ fn tongue() -> (Series, Series, Vec<Marker>) {
             x,
             y,
             label: label.into(),
+            ..Default::default()
         })
         .collect();
     (
@@ -201,6 +202,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             x: PI / 2.0,
             y: 1e-3,
             label: "peak".into(),
+            ..Default::default()
         }],
         ..Default::default()
     };

@@ -6,6 +6,10 @@ use std::path::Path;
 use crate::figure::{Curve, Figure, Piece};
 use crate::page::Page;
 use crate::panel::Panel;
+use crate::style::MAX_LEGEND_ENTRIES;
+
+/// The note under every frequency–energy plot.
+const STABILITY_NOTE: &str = "solid: stable    dashed: unstable";
 use crate::{Marker, PlotError};
 
 /// One NNM branch of a frequency-energy plot.
@@ -22,6 +26,22 @@ pub struct Series {
     pub reference: bool,
     /// RGB colour replacing the palette colour.
     pub color: Option<(u8, u8, u8)>,
+    /// Line width in pixels (at 1200 × 800; default 2, 1 for a reference curve). Wider curves
+    /// are drawn first: a branch drawn wide and light stays visible under a narrower one that
+    /// follows it (a backbone under the branch continued from it).
+    pub width: Option<u32>,
+}
+
+/// How the curves of a frequency–energy plot are named.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum CurveLabels {
+    /// A legend for up to 12 labelled curves, labels at the curves' ends beyond.
+    #[default]
+    Auto,
+    /// A legend (none beyond 12 labelled curves: it would hide the data).
+    Legend,
+    /// Each label written at its curve's end, in the curve's colour, where it hides least.
+    AtEnds,
 }
 
 /// A point of a branch: total energy, frequency and (Floquet) stability.
@@ -57,6 +77,11 @@ pub struct FrequencyEnergyPlot {
     pub x_range: Option<(f64, f64)>,
     /// Fixed frequency range; `None` fits the data inside `x_range`.
     pub y_range: Option<(f64, f64)>,
+    /// Legend or labels at the curves' ends.
+    pub curve_labels: CurveLabels,
+    /// What the markers' labels mean (e.g. `"F fold   BP branch point"`), written after the
+    /// note on line styles; empty: nothing.
+    pub marker_key: String,
 }
 
 impl FrequencyEnergyPlot {
@@ -78,6 +103,7 @@ impl FrequencyEnergyPlot {
                 legend_dashed: false,
                 reference: s.reference,
                 color: s.color,
+                width: s.width,
                 pieces: stability_pieces(&s.points),
             })
             .collect();
@@ -94,7 +120,19 @@ impl FrequencyEnergyPlot {
             markers: &self.markers,
             x_range: self.x_range,
             y_range: self.y_range,
-            note: Some("solid: stable    dashed: unstable"),
+            note: Some(if self.marker_key.is_empty() {
+                STABILITY_NOTE.to_string()
+            } else {
+                format!("{STABILITY_NOTE}      {}", self.marker_key)
+            }),
+            end_labels: match self.curve_labels {
+                CurveLabels::Legend => false,
+                CurveLabels::AtEnds => true,
+                CurveLabels::Auto => {
+                    let labelled = self.series.iter().filter(|s| !s.label.is_empty());
+                    labelled.count() > MAX_LEGEND_ENTRIES
+                }
+            },
         }
         .prepare()
     }

@@ -25,6 +25,8 @@ pub(crate) struct Curve<'a> {
     pub(crate) legend_dashed: bool,
     pub(crate) reference: bool,
     pub(crate) color: Option<(u8, u8, u8)>,
+    /// Line width in pixels at the single-plot size; `None`: 1 for a reference, else 2.
+    pub(crate) width: Option<u32>,
     pub(crate) pieces: Vec<Piece>,
 }
 
@@ -38,7 +40,9 @@ pub(crate) struct Figure<'a> {
     pub(crate) markers: &'a [Marker],
     pub(crate) x_range: Option<(f64, f64)>,
     pub(crate) y_range: Option<(f64, f64)>,
-    pub(crate) note: Option<&'a str>,
+    pub(crate) note: Option<String>,
+    /// Label each curve at its end instead of drawing a legend.
+    pub(crate) end_labels: bool,
 }
 
 type Pieces = Vec<(Vec<(f64, f64)>, bool)>;
@@ -87,7 +91,7 @@ impl<'a> Figure<'a> {
         let markers: Vec<_> = self
             .markers
             .iter()
-            .filter_map(|m| Some((map((m.x, m.y))?, m.label.as_str())))
+            .filter_map(|m| Some((map((m.x, m.y))?, m.label.as_str(), m.shape)))
             .collect();
         let all = || {
             let curve_pts = mapped.iter().flatten().flat_map(|p| p.0.iter().copied());
@@ -160,6 +164,7 @@ impl<'a> Figure<'a> {
                     legend_dashed: c.legend_dashed,
                     reference: c.reference,
                     color,
+                    width: c.width.unwrap_or(if c.reference { 1 } else { 2 }),
                     pieces,
                 }
             })
@@ -174,6 +179,7 @@ impl<'a> Figure<'a> {
             y_label: self.y_label,
             log_x: log,
             note: self.note,
+            end_labels: self.end_labels,
             curves,
             markers,
             xr,

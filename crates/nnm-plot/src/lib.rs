@@ -31,7 +31,7 @@ mod page;
 mod panel;
 mod style;
 
-pub use fep::{FrequencyEnergyPlot, Series, SeriesPoint};
+pub use fep::{CurveLabels, FrequencyEnergyPlot, Series, SeriesPoint};
 pub use grid::PlotGrid;
 pub use line::{Line, LinePlot};
 
@@ -82,6 +82,39 @@ pub struct Marker {
     pub y: f64,
     /// Text beside the dot; empty for a bare dot.
     pub label: String,
+    /// The symbol drawn (a dot unless set): different kinds of points on one plot (folds,
+    /// branch points, ...) get different symbols, explained in the plot's key.
+    pub shape: MarkerShape,
+}
+
+/// The symbol of a [`Marker`], black in a white outline; [`MarkerShape::glyph`] is the
+/// character that stands for it in a key.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum MarkerShape {
+    /// A filled disc.
+    #[default]
+    Dot,
+    /// A filled square.
+    Square,
+    /// A filled triangle, pointing up.
+    Triangle,
+    /// A filled diamond.
+    Diamond,
+    /// A hollow circle.
+    Ring,
+}
+
+impl MarkerShape {
+    /// The character for the symbol in a key (DejaVu Sans has them all).
+    pub fn glyph(self) -> char {
+        match self {
+            MarkerShape::Dot => '●',
+            MarkerShape::Square => '■',
+            MarkerShape::Triangle => '▲',
+            MarkerShape::Diamond => '◆',
+            MarkerShape::Ring => '○',
+        }
+    }
 }
 
 /// Registers DejaVu Sans as "sans-serif" once per process. plotters keeps a

@@ -60,6 +60,7 @@ impl LinePlot {
                 legend_dashed: l.dashed,
                 reference: l.reference,
                 color: l.color,
+                width: None,
                 pieces: vec![Piece {
                     xy: l.xy.clone(),
                     dashed: l.dashed,
@@ -76,6 +77,7 @@ impl LinePlot {
             x_range: self.x_range,
             y_range: self.y_range,
             note: None,
+            end_labels: false,
         }
         .prepare()
     }

@@ -19,6 +19,8 @@ pub(crate) struct Prepared<'a> {
     pub(crate) legend_dashed: bool,
     pub(crate) reference: bool,
     pub(crate) color: RGBColor,
+    /// Line width in pixels at scale 1.
+    pub(crate) width: u32,
     pub(crate) pieces: Vec<(Vec<(f64, f64)>, bool)>,
 }
 
@@ -28,9 +30,11 @@ pub(crate) struct Panel<'a> {
     pub(crate) x_label: &'a str,
     pub(crate) y_label: &'a str,
     pub(crate) log_x: bool,
-    pub(crate) note: Option<&'a str>,
+    pub(crate) note: Option<String>,
+    /// Label each curve at its end instead of drawing a legend.
+    pub(crate) end_labels: bool,
     pub(crate) curves: Vec<Prepared<'a>>,
-    pub(crate) markers: Vec<((f64, f64), &'a str)>,
+    pub(crate) markers: Vec<((f64, f64), &'a str, crate::MarkerShape)>,
     pub(crate) xr: Range<f64>,
     pub(crate) yr: Range<f64>,
 }
@@ -55,7 +59,7 @@ impl Panel<'_> {
         if !self.title.is_empty() {
             area = area.titled(self.title, font(30.0)).map_err(err)?;
         }
-        if let Some(note) = self.note {
+        if let Some(note) = self.note.as_deref() {
             let (w, h) = area.dim_in_pixel();
             let (main, foot) = area.split_vertically(h.saturating_sub(px(34.0) as u32));
             let grey = BLACK.mix(0.75);
@@ -111,15 +115,15 @@ impl Panel<'_> {
         };
         let mut occupied = Occupancy::new(frame.x1, frame.y1);
 
-        // Reference curves first, so the others are drawn over them. Lines
-        // are drawn in pixels by `polyline_paths`, not plotters' line
-        // series: see there.
+        // Reference curves first, then the others from the widest down, so that a narrow
+        // curve lying on a wide one leaves it visible. Lines are drawn in pixels by
+        // `polyline_paths`, not plotters' line series: see there.
         let plot = chart.plotting_area().strip_coord_spec();
-        let order = self.curves.iter().filter(|c| c.reference);
-        let order = order.chain(self.curves.iter().filter(|c| !c.reference));
+        let mut order: Vec<&Prepared> = self.curves.iter().collect();
+        order.sort_by_key(|c| (!c.reference, std::cmp::Reverse(c.width)));
         let dash = (f64::from(px(8.0).max(2)), f64::from(px(6.0).max(2)));
         for c in order {
-            let width = if c.reference { 1 } else { 2 };
+            let width = c.width;
             let style = c.color.stroke_width(width);
             for (xy, is_dashed) in &c.pieces {
                 let pixels: Vec<_> = xy.iter().map(to_px).collect();
@@ -131,8 +135,8 @@ impl Panel<'_> {
                         .map_err(err)?;
                 }
                 for path in polyline_paths(&pixels, is_dashed.then_some(dash)) {
-                    if bitmap && width == 2 {
-                        for (dx, dy) in [(0, 0), (1, 0), (0, 1)] {
+                    if bitmap && width >= 2 {
+                        for (dx, dy) in stroke_offsets(width) {
                             let moved = path.iter().map(|&(x, y)| (x + dx, y + dy));
                             let thin = c.color.stroke_width(1);
                             plot.draw(&PathElement::new(moved.collect::<Vec<_>>(), thin))
@@ -153,7 +157,7 @@ impl Panel<'_> {
             .filter(|c| !c.pieces.is_empty() && !c.label.is_empty())
             .collect();
         let mut legend_box = None;
-        if !entries.is_empty() && entries.len() <= MAX_LEGEND_ENTRIES {
+        if !self.end_labels && !entries.is_empty() && entries.len() <= MAX_LEGEND_ENTRIES {
             let label_style = TextStyle::from(font(18.0));
             let mut text = MultiLineText::<_, &str>::new((0, 0), &label_style);
             for c in &entries {
@@ -208,7 +212,7 @@ impl Panel<'_> {
                     |(_, r)| r,
                 );
             for c in &entries {
-                let width = if c.reference { 2 } else { 3 };
+                let width = c.width + 1;
                 let style = c.color.stroke_width(width);
                 let dashed = c.legend_dashed;
                 let (seg, on, off) = (px(22.0), dash.0 as u32, dash.1 as u32);
@@ -249,11 +253,8 @@ impl Panel<'_> {
                 y1: y + r + 1,
             })
             .collect();
-        for &(x, y) in &markers {
-            plot.draw(&Circle::new((x, y), r, WHITE.filled()))
-                .map_err(err)?;
-            plot.draw(&Circle::new((x, y), r - px(1.5).max(1), BLACK.filled()))
-                .map_err(err)?;
+        for (&(x, y), m) in markers.iter().zip(&self.markers) {
+            draw_symbol(&plot, (x, y), r, px(1.5).max(1), m.2).map_err(err)?;
         }
         let label_style = TextStyle::from(font(20.0)).color(&BLACK);
         let mut placed: Vec<Rect> = legend_box.into_iter().collect();
@@ -274,32 +275,23 @@ impl Panel<'_> {
                 (x - w / 2, y - g - h),
                 (x - w / 2, y + g),
             ];
-            let boxed = |&(lx, ly): &(i32, i32)| Rect {
-                x0: lx - pad,
-                y0: ly - pad,
-                x1: lx + w + pad,
-                y1: ly + h + pad,
-            };
-            let cost = |b: &Rect, i: usize| {
-                let outside = usize::from(!b.within(&frame)) * 100_000;
-                let labels = placed.iter().filter(|p| p.overlaps(b)).count() * 10_000;
-                let dots = symbols.iter().filter(|p| p.overlaps(b)).count() * 5_000;
-                // A label nearer to another marker than to its own misleads.
+            // A label nearer to another marker than to its own misleads.
+            let closer = |b: &Rect| {
                 let own = b.distance2((x, y));
-                let closer = markers
+                let nearer = markers
                     .iter()
                     .enumerate()
                     .filter(|&(k, &p)| k != j && b.distance2(p) < own)
                     .count();
-                outside + labels + dots + closer * 5_000 + occupied.count(b) * 10 + i
+                nearer * 5_000
             };
-            let (i, b) = spots
-                .iter()
-                .map(boxed)
-                .enumerate()
-                .min_by_key(|(i, b)| cost(b, *i))
-                .unwrap_or((0, boxed(&spots[0])));
-            let (lx, ly) = spots[i];
+            let crowd = Crowd {
+                frame: &frame,
+                placed: &placed,
+                symbols: &symbols,
+                occupied: &occupied,
+            };
+            let ((lx, ly), b) = crowd.best_spot(&spots, (w, h), pad, closer);
             plot.draw(&Rectangle::new(
                 [(b.x0, b.y0), (b.x1, b.y1)],
                 WHITE.mix(0.8).filled(),
@@ -309,8 +301,151 @@ impl Panel<'_> {
                 .map_err(err)?;
             placed.push(b);
         }
+
+        // Curve labels at the curves' ends, in their colours: beside the last point, where
+        // they overlap least with other labels, markers and curves.
+        if self.end_labels {
+            let style = TextStyle::from(font(17.0));
+            for c in &entries {
+                let Some(&end) = c.pieces.last().and_then(|p| p.0.last()) else {
+                    continue;
+                };
+                let (x, y) = to_px(&end);
+                let (w, h) = plot.estimate_text_size(c.label, &style).map_err(err)?;
+                let (w, h, pad, g) = (w as i32, h as i32, px(2.0), px(5.0));
+                let spots = [
+                    (x + g, y - h / 2),
+                    (x + g, y - h - g),
+                    (x + g, y + g),
+                    (x - g - w, y - h - g),
+                    (x - g - w, y + g),
+                    (x - g - w, y - h / 2),
+                    (x - w / 2, y - h - g),
+                    (x - w / 2, y + g),
+                    (x + g, y - 2 * h - g),
+                    (x + g, y + h + g),
+                    (x - g - w, y - 2 * h - g),
+                    (x - g - w, y + h + g),
+                ];
+                let crowd = Crowd {
+                    frame: &frame,
+                    placed: &placed,
+                    symbols: &symbols,
+                    occupied: &occupied,
+                };
+                let ((lx, ly), b) = crowd.best_spot(&spots, (w, h), pad, |_| 0);
+                plot.draw(&Rectangle::new(
+                    [(b.x0, b.y0), (b.x1, b.y1)],
+                    WHITE.mix(0.75).filled(),
+                ))
+                .map_err(err)?;
+                let darker = RGBColor(c.color.0 / 4 * 3, c.color.1 / 4 * 3, c.color.2 / 4 * 3);
+                let text = style.clone().color(&darker);
+                plot.draw(&Text::new(c.label, (lx, ly), &text))
+                    .map_err(err)?;
+                placed.push(b);
+            }
+        }
         Ok(())
     }
+}
+
+/// What a label placed on a chart should not cover, most important first: the frame's
+/// outside, labels already placed, marker symbols, and curves.
+struct Crowd<'a> {
+    frame: &'a Rect,
+    placed: &'a [Rect],
+    symbols: &'a [Rect],
+    occupied: &'a Occupancy,
+}
+
+impl Crowd<'_> {
+    /// Of `spots` (top-left corners of a `w × h` text), the one whose box, padded by `pad`,
+    /// covers least (`extra` adds a cost of its own; ties go to the earlier spot), with the box.
+    fn best_spot(
+        &self,
+        spots: &[(i32, i32)],
+        (w, h): (i32, i32),
+        pad: i32,
+        extra: impl Fn(&Rect) -> usize,
+    ) -> ((i32, i32), Rect) {
+        let boxed = |&(lx, ly): &(i32, i32)| Rect {
+            x0: lx - pad,
+            y0: ly - pad,
+            x1: lx + w + pad,
+            y1: ly + h + pad,
+        };
+        let cost = |b: &Rect, i: usize| {
+            let outside = usize::from(!b.within(self.frame)) * 100_000;
+            let labels = self.placed.iter().filter(|p| p.overlaps(b)).count() * 10_000;
+            let dots = self.symbols.iter().filter(|p| p.overlaps(b)).count() * 5_000;
+            outside + labels + dots + extra(b) + self.occupied.count(b) * 10 + i
+        };
+        spots
+            .iter()
+            .map(|spot| (*spot, boxed(spot)))
+            .enumerate()
+            .min_by_key(|(i, (_, b))| cost(b, *i))
+            .map_or((spots[0], boxed(&spots[0])), |(_, best)| best)
+    }
+}
+
+/// A marker's symbol of radius `r` at `(x, y)`: black, in a white outline `outline` wide.
+fn draw_symbol<DB: DrawingBackend>(
+    plot: &DrawingArea<DB, Shift>,
+    (x, y): (i32, i32),
+    r: i32,
+    outline: i32,
+    shape: crate::MarkerShape,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    use crate::MarkerShape as S;
+    let polygon = |r: i32| -> Vec<(i32, i32)> {
+        match shape {
+            S::Square => vec![
+                (x - r, y - r),
+                (x + r, y - r),
+                (x + r, y + r),
+                (x - r, y + r),
+            ],
+            S::Triangle => vec![
+                (x, y - r - r / 3),
+                (x + r + r / 6, y + r),
+                (x - r - r / 6, y + r),
+            ],
+            _ => vec![
+                (x, y - r - r / 4),
+                (x + r, y),
+                (x, y + r + r / 4),
+                (x - r, y),
+            ],
+        }
+    };
+    match shape {
+        S::Dot => {
+            plot.draw(&Circle::new((x, y), r, WHITE.filled()))?;
+            plot.draw(&Circle::new((x, y), r - outline, BLACK.filled()))
+        }
+        S::Ring => {
+            plot.draw(&Circle::new((x, y), r, WHITE.filled()))?;
+            plot.draw(&Circle::new((x, y), r - outline, BLACK.stroke_width(2)))
+        }
+        _ => {
+            plot.draw(&Polygon::new(polygon(r), WHITE.filled()))?;
+            plot.draw(&Polygon::new(polygon(r - outline), BLACK.filled()))
+        }
+    }
+}
+
+/// Pixel offsets of the 1 px lines that stroke a line `width` px wide in a bitmap (see
+/// [`Panel::draw`]): an L of three for 2 px, a filled square beyond.
+fn stroke_offsets(width: u32) -> Vec<(i32, i32)> {
+    if width <= 2 {
+        return vec![(0, 0), (1, 0), (0, 1)];
+    }
+    let w = width as i32;
+    (0..w)
+        .flat_map(|dx| (0..w).map(move |dy| (dx - w / 2, dy - w / 2)))
+        .collect()
 }
 
 /// Splits a pixel polyline into the paths to stroke (after thinning out

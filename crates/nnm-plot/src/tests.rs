@@ -296,6 +296,7 @@ fn marker(label: &str, x: f64, y: f64) -> Marker {
         x,
         y,
         label: label.into(),
+        ..Default::default()
     }
 }
 

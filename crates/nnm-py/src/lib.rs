@@ -16,6 +16,7 @@ use std::ops::ControlFlow;
 use std::panic::AssertUnwindSafe;
 use std::path::PathBuf;
 
+use nnm::analysis::ModalComponent;
 use nnm::bifurcation::{Event, SwitchError};
 use nnm::model::{CyclicSymmetry, Matrix, ModelError, PolynomialTensor, SparseMatrix, Structure};
 use nnm::modes::{LinearMode, StandingWave, linear_modes};
@@ -550,9 +551,11 @@ impl NativeModel {
         let out = PyDict::new(py);
         out.set_item("linear_frequency", start.omega)?;
         out.set_item("wall_time", wall_time)?;
+        let output_dofs = start.output_dofs(settings);
+        out.set_item("output_dofs", output_dofs.clone())?;
         let branch = match result {
             Ok(branch) => {
-                branch_dict(py, &branch, &out)?;
+                branch_dict(py, &branch, output_dofs.len(), &out)?;
                 let stopped_by_callback =
                     observer.stopped && branch.stop == StopReason::Interrupted;
                 out.set_item(
@@ -579,7 +582,7 @@ impl NativeModel {
                     omega: start.omega,
                     missed_requests: Vec::new(),
                 };
-                branch_dict(py, &empty, &out)?;
+                branch_dict(py, &empty, output_dofs.len(), &out)?;
                 out.set_item("stop", e.to_string())?;
                 out.set_item("stop_kind", "first-point")?;
                 out.set_item("error", e.to_string())?;
@@ -732,8 +735,15 @@ impl Observer for &mut PyObserver<'_> {
 }
 
 /// The branch's points as columns (numpy arrays), its events, stop reason and counters, into
-/// `out`. Multipliers are a `points × m` complex array (NaN where a point has fewer).
-fn branch_dict<'py>(py: Python<'py>, branch: &Branch, out: &Bound<'py, PyDict>) -> PyResult<()> {
+/// `out`. Multipliers are a `points × m` complex array (NaN where a point has fewer); peak
+/// displacements `points × output_dofs`; the regime's partner columns NaN (strings empty)
+/// where a point has no partner.
+fn branch_dict<'py>(
+    py: Python<'py>,
+    branch: &Branch,
+    output_dofs: usize,
+    out: &Bound<'py, PyDict>,
+) -> PyResult<()> {
     let points = &branch.points;
     type Column = (&'static str, fn(&BranchPoint) -> f64);
     let columns: [Column; 9] = [
@@ -768,6 +778,45 @@ fn branch_dict<'py>(py: Python<'py>, branch: &Branch, out: &Bound<'py, PyDict>) 
         .map(|p| p.label.map_or("", |l| l.name()))
         .collect();
     out.set_item("label", labels)?;
+    let peaks = Array2::from_shape_fn((points.len(), output_dofs), |(k, d)| {
+        points[k]
+            .peak_displacements
+            .get(d)
+            .copied()
+            .unwrap_or(f64::NAN)
+    });
+    out.set_item("peak_displacement", peaks.into_pyarray(py))?;
+    let regimes: Vec<&str> = points
+        .iter()
+        .map(|p| p.regime.map_or("", |r| r.kind.name()))
+        .collect();
+    out.set_item("regime", regimes)?;
+    type Partner = (&'static str, fn(&ModalComponent) -> f64);
+    let partner_columns: [Partner; 3] = [
+        ("partner_mode", |c| c.mode as f64),
+        ("partner_harmonic", |c| c.harmonic as f64),
+        ("partner_share", |c| c.share),
+    ];
+    for (name, value) in partner_columns {
+        let values: Vec<f64> = points
+            .iter()
+            .map(|p| {
+                p.regime
+                    .and_then(|r| r.partner)
+                    .map_or(f64::NAN, |c| value(&c))
+            })
+            .collect();
+        out.set_item(name, values.into_pyarray(py))?;
+    }
+    let ratios: Vec<String> = points
+        .iter()
+        .map(|p| {
+            p.regime
+                .and_then(|r| r.ratio)
+                .map_or(String::new(), |(m, n)| format!("{m}:{n}"))
+        })
+        .collect();
+    out.set_item("ratio", ratios)?;
     let missed = PyList::empty(py);
     for m in &branch.missed_requests {
         let d = PyDict::new(py);

@@ -54,8 +54,15 @@ def test_to_pandas_has_the_columns_of_the_csv_file(two_dof_branch) -> None:
     assert list(frame.columns) == [
         "index", "energy", "frequency_rad_s", "period_s", "stable", "max_floquet_modulus",
         "relative_residual", "iterations", "step", "full_period_residual", "unstable_pairs", "label",
-        "frequency_hz", "frequency_ratio",
+        "frequency_hz", "frequency_ratio", "regime", "partner_mode", "partner_harmonic", "partner_share",
+        "ratio", "peak_x0",
     ]
+    # The output dof defaults to the starting mode's largest entry: x1 of the in-phase mode (the
+    # first of two equal ones). A synchronous motion's turning point is its start, so the peak
+    # over the period is |x0| there.
+    assert two_dof_branch.output_dofs == [0]
+    np.testing.assert_allclose(frame["peak_x0"], np.abs(two_dof_branch.displacement0[:, 0]), rtol=1e-9)
+    assert set(frame["regime"]) == {"backbone"}
     np.testing.assert_array_equal(frame["energy"], two_dof_branch.energy)
     b = two_dof_branch
     np.testing.assert_allclose(frame["frequency_hz"] * 2 * np.pi, b.frequency, rtol=1e-15)

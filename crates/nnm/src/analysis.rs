@@ -1,5 +1,16 @@
 //! Post-processing of computed NNMs: motions over a period, their harmonic content, how much a
-//! shape has changed, and how energy is distributed over the sectors of a cyclic structure.
+//! shape has changed, and how energy is distributed over the sectors of a cyclic structure;
+//! the peak displacements and the regime (backbone, internal-resonance tongue, other family)
+//! measured at every point of a branch.
+
+mod peak;
+mod regime;
+
+pub use peak::{local_peak, peak_candidates};
+pub use regime::{
+    HOME_SHARE, Home, ModalComponent, NEAR_DEGENERATE, REPORTED_SHARE, RESONANCE_WINDOW, Regime,
+    RegimeKind, TONGUE_SHARE, modal_content,
+};
 
 use std::f64::consts::PI;
 

@@ -7,6 +7,7 @@
 
 use std::ops::ControlFlow;
 
+use crate::analysis::Home;
 use crate::bifurcation::{BifurcationDetector, Event};
 use crate::continuation::{Continuation, ContinuationError, Item, Segment, Solution};
 use crate::model::MechanicalSystem;
@@ -133,7 +134,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     settings: &Settings,
     observer: impl Observer,
 ) -> Result<Branch, ContinuationError> {
-    settings.validate()?;
+    settings.validate_for(system.dofs())?;
     // The observer hears of evaluations from inside a continuation step and of points
     // between steps, never both at once.
     let observer = std::cell::RefCell::new(observer);
@@ -158,6 +159,16 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     let mut regular: Option<BranchPoint> = None;
     let mut regular_points = 0;
     let mut beyond: Option<BranchPoint> = None;
+    // The modes the branch calls home, from its first point (docs/method.md eq. (85)).
+    let mut home: Option<Home> = None;
+    let mut classify = |point: &mut BranchPoint| {
+        if home.is_none() {
+            home = Home::from_first_point(&point.content);
+        }
+        point.regime = home
+            .as_ref()
+            .map(|h| h.classify(&point.content, point.frequency));
+    };
     let mut continuation =
         Continuation::new(&mut shooting, u0, &pin, &settings.continuation, detector)?;
     let stop = loop {
@@ -175,14 +186,15 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
             None => break StopReason::MaxPoints,
         };
         match item {
-            Item::Event(Found::Event(event)) => {
+            Item::Event(Found::Event(mut event)) => {
+                classify(&mut event.point);
                 let flow = observer.borrow_mut().event(&event);
                 events.push(event);
                 if flow.is_break() {
                     break StopReason::Interrupted;
                 }
             }
-            Item::Event(Found::Exact { point, request }) => {
+            Item::Event(Found::Exact { mut point, request }) => {
                 // On the last segment, a requested point past the limit is not on the branch
                 // (one on the limit itself is kept, and then ends it).
                 if passed_limit(limits, start.omega, &point)
@@ -191,6 +203,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                     continue;
                 }
                 hit[request] = true;
+                classify(&mut point);
                 let flow = observer.borrow_mut().point(&point);
                 points.push(point);
                 if flow.is_break() {
@@ -201,7 +214,8 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                 let (label, value) = requested.values[request];
                 missed.push(MissedRequest { label, value, why });
             }
-            Item::Point(point) => {
+            Item::Point(mut point) => {
+                classify(&mut point);
                 // A point past a limit is replaced by the point exactly on it (below).
                 if let Some((reason, _)) = passed_limit(limits, start.omega, &point)
                     && regular.is_some()
@@ -238,7 +252,8 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
             let (exact, iterations) =
                 point_on_limit(&mut shooting, settings, start.omega, previous, &next);
             counters.newton_iterations += iterations;
-            let last = exact.unwrap_or(next);
+            let mut last = exact.unwrap_or(next);
+            classify(&mut last);
             // The branch stops here whatever the observer answers.
             let _ = observer.borrow_mut().point(&last);
             points.push(last);

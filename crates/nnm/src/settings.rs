@@ -34,6 +34,10 @@ pub struct Settings {
     /// Stability tolerance and event detection (docs/method.md §7–8).
     #[serde(flatten)]
     pub stability: StabilitySettings,
+    /// What is measured of every point's motion beyond the shooting unknowns (docs/method.md
+    /// §18).
+    #[serde(flatten)]
+    pub output: OutputSettings,
 }
 
 /// Where a branch stops.
@@ -124,6 +128,16 @@ pub struct IntegrationSettings {
     /// Integrator relative tolerance as a fraction of the continuation tolerance (default
     /// 1e-3: the integration error must sit well below the residual Newton converges to).
     pub integration_factor: f64,
+}
+
+/// What is measured of every point's motion (docs/method.md §18).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct OutputSettings {
+    /// Dofs (0-based, in the model's numbering after `fixed_dofs`) whose peak displacement
+    /// over the period is measured at every point; empty (default): the dof where the
+    /// starting mode's amplitude is largest.
+    pub output_dofs: Vec<usize>,
 }
 
 /// Floquet stability and bifurcation events.
@@ -235,7 +249,19 @@ impl Settings {
         "integration_factor",
         "stability_tolerance",
         "events",
+        "output_dofs",
     ];
+
+    /// [`Self::validate`], and the settings that name dofs against a model of `dofs` dofs.
+    pub fn validate_for(&self, dofs: usize) -> Result<(), SettingsError> {
+        self.validate()?;
+        if let Some(&d) = self.output.output_dofs.iter().find(|&&d| d >= dofs) {
+            return Err(SettingsError(format!(
+                "output_dofs: dof {d} does not exist (the model has {dofs} dofs, numbered from 0)"
+            )));
+        }
+        Ok(())
+    }
 
     /// Checks every setting; continuation calls it, and front ends can call it early.
     // Negated comparisons are deliberate: NaN must fail them.

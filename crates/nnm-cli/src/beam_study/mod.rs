@@ -119,7 +119,7 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
     }
     // Quiet: the summary only when something went wrong (it says which branch).
     if !options.quiet || !failed.is_empty() || crate::interrupt::requested() {
-        print_summary(&outcomes);
+        print_summary(&outcomes, &modes);
     }
     if crate::interrupt::requested() {
         return Err(crate::Unfinished::Interrupted(

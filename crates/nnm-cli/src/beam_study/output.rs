@@ -7,6 +7,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use nnm::Branch;
+use nnm_io::output::{number, write_table};
 use nnm_plot::{FrequencyEnergyPlot, Line, LinePlot, PlotGrid, Series};
 
 use super::{BeamStudy, Deflection, hz};
@@ -14,21 +15,29 @@ use crate::run::Outcome;
 
 /// `modes.csv`: the model's first linear frequencies beside Euler–Bernoulli theory.
 pub(super) fn modes_csv(study: &BeamStudy, path: &Path) -> Result<()> {
-    let mut text = String::from(
-        "index,frequency_hz,frequency_rad_s,euler_bernoulli_hz,euler_bernoulli_rad_s,relative_difference\n",
-    );
-    for (k, f) in study.frequencies.iter().enumerate() {
-        let _ = writeln!(
-            text,
-            "{k},{},{},{},{},{:e}",
-            hz(f.model),
-            f.model,
-            hz(f.theory),
-            f.theory,
-            f.relative_difference()
-        );
-    }
-    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+    let rows = study.frequencies.iter().enumerate().map(|(k, f)| {
+        vec![
+            k.to_string(),
+            number(hz(f.model)),
+            number(f.model),
+            number(hz(f.theory)),
+            number(f.theory),
+            format!("{:e}", f.relative_difference()),
+        ]
+    });
+    write_table(
+        path,
+        &[
+            "index",
+            "frequency_hz",
+            "frequency_rad_s",
+            "euler_bernoulli_hz",
+            "euler_bernoulli_rad_s",
+            "relative_difference",
+        ],
+        rows,
+    )?;
+    Ok(())
 }
 
 /// The legend entry of a branch: its mode (1-based, as in the report) and linear frequency.
@@ -43,7 +52,8 @@ fn mode_name(o: &Outcome) -> String {
 /// `fep`: every branch in Hz against the total energy in J, events marked.
 pub(super) fn frequency_energy_plot(study: &BeamStudy, stem: &Path) -> Result<()> {
     let title = "ECL cantilever beam: nonlinear normal modes";
-    let Some(mut fep) = crate::run::frequency_energy_plot(&study.outcomes, title, hz(1.0)) else {
+    let Some(mut fep) = crate::fep::frequency_energy_plot(&study.outcomes, &[], title, hz(1.0))
+    else {
         return Ok(());
     };
     for series in &mut fep.series {
@@ -52,7 +62,7 @@ pub(super) fn frequency_energy_plot(study: &BeamStudy, stem: &Path) -> Result<()
         }
     }
     fep.frequency_label = "frequency (Hz)".into();
-    fep.energy_label = "total energy (J)".into();
+    fep.energy_label = "total energy E = kinetic + potential (J)".into();
     fep.write(stem)?;
     Ok(())
 }
@@ -64,7 +74,7 @@ pub(super) fn normalised_frequency_energy_plot(study: &BeamStudy, stem: &Path) -
     for o in &study.outcomes {
         let scale = 1.0 / o.info.linear_frequency_rad_s;
         let one = std::slice::from_ref(o);
-        let Some(fep) = crate::run::frequency_energy_plot(one, "", scale) else {
+        let Some(fep) = crate::fep::frequency_energy_plot(one, &[], "", scale) else {
             continue;
         };
         series.extend(fep.series.into_iter().map(|s| Series {
@@ -80,7 +90,8 @@ pub(super) fn normalised_frequency_energy_plot(study: &BeamStudy, stem: &Path) -
         title: "ECL cantilever beam: frequency relative to the linear one".into(),
         series,
         frequency_label: "frequency / linear frequency".into(),
-        energy_label: "total energy (J)".into(),
+        energy_label: "total energy E = kinetic + potential (J)".into(),
+        marker_key: crate::fep::marker_key(&markers),
         markers,
         ..Default::default()
     }

@@ -4,10 +4,12 @@
 use std::path::Path;
 
 use anyhow::Result;
-use nnm::Branch;
 use nnm::model::{MechanicalSystem, Structure};
 use nnm::modes::{LinearMode, find_mode};
-use nnm_plot::{FrequencyEnergyPlot, Line, LinePlot, Marker, PlotGrid, Series, SeriesPoint};
+use nnm::{Branch, BranchPoint};
+use nnm_plot::{
+    FrequencyEnergyPlot, Line, LinePlot, Marker, MarkerShape, PlotGrid, Series, SeriesPoint,
+};
 
 use super::SAMPLES;
 use super::backbones::Backbones;
@@ -15,27 +17,15 @@ use super::bifurcations::{SWITCHED_SHIFT, Switched};
 use super::junction::JunctionCheck;
 use super::localization::Localization;
 use super::tongue::{Motion, Tongue};
-use crate::run::event_markers;
+use crate::fep::{
+    FREQUENCY_AXIS, branches_plot, event_markers, marker_key, regime_markers, series_of,
+};
 
 /// Modes whose shapes are drawn (the paper's Figure 3).
 pub(super) const SHAPE_MODES: [&str; 4] = ["0,1", "0,15", "1,5", "1,14"];
 
-/// A branch as a frequency–energy series, its frequencies multiplied by `scale`.
-fn series_of(label: &str, branch: &Branch, scale: f64) -> Series {
-    Series {
-        label: label.into(),
-        points: branch
-            .points
-            .iter()
-            .map(|p| SeriesPoint {
-                energy: p.energy,
-                frequency: p.frequency * scale,
-                stable: p.floquet.stable,
-            })
-            .collect(),
-        ..Default::default()
-    }
-}
+/// The energy axis of the study's plots: the disk's model is dimensionless (`M = K = 1`).
+const ENERGY_AXIS: &str = "total energy E = kinetic + potential (dimensionless)";
 
 /// `mode-shapes`: disk and blade amplitude per sector of each of `SHAPE_MODES`.
 pub(super) fn mode_shapes(structure: &Structure, modes: &[LinearMode], out: &Path) -> Result<()> {
@@ -69,17 +59,16 @@ pub(super) fn mode_shapes(structure: &Structure, modes: &[LinearMode], out: &Pat
     Ok(())
 }
 
-/// `fep-backbones`: the frequency–energy plot of every backbone.
+/// `fep-backbones`: the frequency–energy plot of every backbone, each named `(n,d)` (at its
+/// end when there are too many for a legend), with its events and regime changes marked.
 pub(super) fn backbones(backbones: &Backbones, out: &Path) -> Result<()> {
-    let series = backbones
+    let named: Vec<(String, &Branch)> = backbones
         .computed()
-        .map(|(o, branch)| series_of(&o.info.name, branch, 1.0))
+        .map(|(o, branch)| (format!("({})", o.info.mode_label), branch))
         .collect();
     FrequencyEnergyPlot {
-        title: "Backbones of the bladed disk".into(),
-        series,
-        frequency_label: "frequency (rad/s)".into(),
-        ..Default::default()
+        energy_label: ENERGY_AXIS.into(),
+        ..branches_plot(&named, "Backbones of the bladed disk", 1.0)
     }
     .write(&out.join("fep-backbones"))?;
     Ok(())
@@ -92,7 +81,7 @@ pub(super) fn localization(localization: &Localization, out: &Path) -> Result<()
     let base = localization.standing_wave_share;
     LinePlot {
         title: "Localization along the (1,14) backbone".into(),
-        x_label: "total energy".into(),
+        x_label: ENERGY_AXIS.into(),
         y_label: "share of energy in the 3 most energetic sectors".into(),
         log_x: true,
         lines: vec![
@@ -159,6 +148,7 @@ pub(super) fn bifurcations(switched: &Switched, out: &Path) -> Result<()> {
             .iter()
             .chain(&switched.branch.events)
             .filter(|e| e.point.frequency < linear * (1.0 + SWITCHED_SHIFT + 0.01)),
+        true,
     );
     FrequencyEnergyPlot {
         title: "(1,5): backbone, branch points and the switched family".into(),
@@ -166,7 +156,9 @@ pub(super) fn bifurcations(switched: &Switched, out: &Path) -> Result<()> {
             series_of("(1,5) backbone", switched.parent, 1.0),
             series_of("switched at the first BP", &switched.branch, 1.0),
         ],
-        frequency_label: "frequency (rad/s)".into(),
+        frequency_label: FREQUENCY_AXIS.into(),
+        energy_label: ENERGY_AXIS.into(),
+        marker_key: marker_key(&markers),
         markers,
         // Zoom on the switch: from a third of the branch point's energy to past the end of
         // the switched family.
@@ -196,16 +188,26 @@ pub(super) fn tongue(
     out: &Path,
 ) -> Result<()> {
     let (e_junction, _) = tongue.junction();
-    let markers = motions
+    let tongue_points: Vec<BranchPoint> = tongue.points.iter().map(|t| t.point.clone()).collect();
+    let mut markers: Vec<Marker> = motions
         .iter()
         .map(|m| Marker {
             x: m.energy,
             y: m.frequency,
             label: m.name.to_string(),
+            shape: MarkerShape::Dot,
         })
         .collect();
+    let motions_key = format!(
+        "{} M1–M3 motions (tongue-motions.png)",
+        MarkerShape::Dot.glyph()
+    );
+    let regimes = regime_markers(&tongue_points);
+    let key = format!("{motions_key}   {}", marker_key(&regimes));
+    markers.extend(regimes);
     let tongue_branch_series = Series {
         label: "(0,6) continued: tongue".into(),
+        color: Some((230, 110, 10)),
         points: tongue
             .points
             .iter()
@@ -237,7 +239,12 @@ pub(super) fn tongue(
     FrequencyEnergyPlot {
         title: "3:1 internal resonance between (0,6) and (1,12)".into(),
         series: vec![
-            series_of("(0,6) backbone", backbone_0_6, 1.0),
+            // Drawn wide and light under the tongue's branch, which starts on it.
+            Series {
+                width: Some(7),
+                color: Some((160, 200, 232)),
+                ..series_of("(0,6) backbone", backbone_0_6, 1.0)
+            },
             tongue_branch_series,
             Series {
                 reference: true,
@@ -248,7 +255,9 @@ pub(super) fn tongue(
                 )
             },
         ],
-        frequency_label: "frequency (rad/s)".into(),
+        frequency_label: FREQUENCY_AXIS.into(),
+        energy_label: ENERGY_AXIS.into(),
+        marker_key: key,
         markers,
         x_range: Some(x_range),
         y_range: Some((f_lo - pad, f_hi + pad)),
@@ -259,13 +268,16 @@ pub(super) fn tongue(
         tongue
             .points
             .iter()
-            .map(|t| (t.point.index as f64, value(t.a1, t.a3)))
+            .map(|t| (t.point.energy, value(t.a1, t.a3)))
             .collect()
     };
+    // Against the energy: the branch rises to the tongue's far fold and comes back down, so
+    // each harmonic traces a loop; M1–M3 mark where the motions are drawn.
     LinePlot {
         title: "Harmonic content along the (0,6) branch and its tongue".into(),
-        x_label: "point along the branch".into(),
-        y_label: "amplitude".into(),
+        x_label: ENERGY_AXIS.into(),
+        y_label: "harmonic amplitude (norm over all dofs)".into(),
+        log_x: true,
         lines: vec![
             Line {
                 label: "fundamental |A1|".into(),
@@ -282,9 +294,10 @@ pub(super) fn tongue(
         markers: motions
             .iter()
             .map(|m| Marker {
-                x: tongue.points[m.index].point.index as f64,
+                x: tongue.points[m.index].point.energy,
                 y: tongue.points[m.index].a1.abs(),
                 label: m.name.to_string(),
+                shape: MarkerShape::Dot,
             })
             .collect(),
         ..Default::default()
@@ -344,7 +357,8 @@ pub(super) fn travelling(
     FrequencyEnergyPlot {
         title: "Travelling and standing waves".into(),
         series,
-        frequency_label: "frequency (rad/s)".into(),
+        frequency_label: FREQUENCY_AXIS.into(),
+        energy_label: ENERGY_AXIS.into(),
         ..Default::default()
     }
     .write(&out.join("fep-travelling"))?;

@@ -66,6 +66,11 @@ _CSV_COLUMNS = [
     ("label", "label"),
     ("frequency_hz", "frequency_hz"),
     ("frequency_ratio", "frequency_ratio"),
+    ("regime", "regime"),
+    ("partner_mode", "partner_mode"),
+    ("partner_harmonic", "partner_harmonic"),
+    ("partner_share", "partner_share"),
+    ("ratio", "ratio"),
 ]
 
 
@@ -79,7 +84,12 @@ class Branch:
     ``unstable_pairs``, ``relative_residual``, ``full_period_residual``, ``iterations``,
     ``step``, ``energy_slope``, ``label`` (``""`` for a continuation step; ``"at_energy"`` or
     ``"at_frequency"`` for a point placed exactly on a requested value, ``"energy_max"`` or
-    ``"frequency_shift_max"`` for the last point, on the limit). Also ``missed_requests``
+    ``"frequency_shift_max"`` for the last point, on the limit), ``peak_displacement``
+    (points × len(``output_dofs``): the largest ``|x_d(t)|`` over the period of each output dof),
+    ``regime`` (``"backbone"``, ``"tongue"`` or ``"other-family"``: where the point is relative to
+    the branch's first, with the resonant ``partner_mode``, its ``partner_harmonic``,
+    ``partner_share`` of the energy — NaN without one — and the ``ratio`` ``"m:n"``; see
+    docs/output.md). Also ``missed_requests``
     (requested values without a point: dicts of ``label``, ``value`` and ``why``), ``events`` (list of :class:`Event`), ``stop`` (why it
     ended, in words) and ``stop_kind`` (``"energy-max"``, ``"frequency-shift-max"``,
     ``"max-points"``, ``"callback"``, ``"interrupted"``, ``"step-too-small"`` or
@@ -106,6 +116,13 @@ class Branch:
     energy_slope: np.ndarray
     index: np.ndarray
     label: np.ndarray
+    output_dofs: list[int]
+    peak_displacement: np.ndarray
+    regime: np.ndarray
+    partner_mode: np.ndarray
+    partner_harmonic: np.ndarray
+    partner_share: np.ndarray
+    ratio: np.ndarray
     missed_requests: list[dict[str, Any]]
     events: list[Event]
     stop: str
@@ -136,6 +153,8 @@ class Branch:
         if self.state0.shape[0] == 0:
             self.state0 = self.state0.reshape(0, 2 * n)
         self.label = np.array(self.label, dtype=object)
+        self.regime = np.array(self.regime, dtype=object)
+        self.ratio = np.array(self.ratio, dtype=object)
         self.events = [Event(**e) for e in events]
 
     def __len__(self) -> int:
@@ -196,7 +215,10 @@ class Branch:
         """The points as a DataFrame with the columns of ``<branch>.csv``."""
         import pandas
 
-        return pandas.DataFrame({column: getattr(self, attribute) for column, attribute in _CSV_COLUMNS})
+        columns = {column: getattr(self, attribute) for column, attribute in _CSV_COLUMNS}
+        for k, dof in enumerate(self.output_dofs):
+            columns[f"peak_x{dof}"] = self.peak_displacement[:, k]
+        return pandas.DataFrame(columns)
 
     def plot(self, ax: "matplotlib.axes.Axes | None" = None, **kwargs: Any) -> "matplotlib.axes.Axes":
         """The frequency–energy plot of this branch (see :func:`nnm.plot.fep`)."""

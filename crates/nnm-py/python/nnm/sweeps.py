@@ -25,8 +25,9 @@ largest value, and ``localization_energy``, the energy at which it first exceeds
 
 Results are written as samples complete, so an interrupted sweep loses only the samples
 running at that moment: ``OUT/sweep.csv`` (one row per sample), ``OUT/samples/*.csv`` (each
-sample's branch: energy, frequency, stability, localization), and at the end
-``OUT/statistics.csv`` and the figures ``OUT/localization.png`` and ``OUT/frequency.png``.
+sample's branch: energy, frequency, stability, localization, regime and peak displacement), and
+at the end ``OUT/statistics.csv`` and the figures ``OUT/localization.png`` and
+``OUT/frequency.png`` (docs/output.md has every column).
 A rerun into the same ``OUT`` with the same job, branches and seed skips the samples already
 in ``sweep.csv`` (more samples, σ or grid values may be added). A worker lost mid-sample is
 replaced by Dask and its sample rerun elsewhere; samples whose branch fails numerically are
@@ -257,6 +258,8 @@ def run_sample(
         "frequency_rad_s": branch.frequency,
         "stable": branch.stable,
         "localization": share,
+        "regime": branch.regime,
+        "peak": branch.peak_displacement[:, 0],
     }
     return {"row": row, "curve": curve}
 

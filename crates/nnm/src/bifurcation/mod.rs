@@ -485,6 +485,9 @@ mod tests {
             unknowns: vec![],
             tangent: vec![],
             label: None,
+            peak_displacements: vec![],
+            content: vec![],
+            regime: None,
         }
     }
 

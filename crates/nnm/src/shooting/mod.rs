@@ -21,11 +21,13 @@
 
 mod matrix_free;
 mod monodromy;
+mod motion;
 mod point;
 mod shift;
 mod start;
 
 pub use matrix_free::MatrixFreeJacobian;
+pub use motion::{CONTENT_HARMONICS, MOTION_SAMPLES, Motion};
 pub use point::{BranchPoint, PointLabel};
 pub use shift::{ShiftSymmetry, Travel};
 pub use start::{Start, StartError};
@@ -210,6 +212,10 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     matrix_free: Option<matrix_free::MatrixFree>,
     /// Why this problem cannot be evaluated, if it cannot (reported by the first evaluation).
     unsupported: Option<String>,
+    /// The linear mode (index in the model's list) of each column of `basis`.
+    basis_modes: Vec<usize>,
+    /// The dofs whose peak displacements every point records.
+    output_dofs: Vec<usize>,
 }
 
 /// A progress hook: called with every evaluation.
@@ -287,6 +293,10 @@ pub struct ShootingSetup {
     pub phase_reference: Vec<f64>,
     /// Whether `basis` holds every elastic mode (the dense formulation needs them all).
     pub complete_basis: bool,
+    /// The linear mode (index in the model's list) of each column of `basis`.
+    pub basis_modes: Vec<usize>,
+    /// The dofs whose peak displacements every point records ([`Start::output_dofs`]).
+    pub output_dofs: Vec<usize>,
 }
 
 impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
@@ -303,6 +313,8 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             shift,
             phase_reference,
             complete_basis,
+            basis_modes,
+            output_dofs,
         } = setup;
         let n = system.dofs();
         let r = basis.len() / n;
@@ -391,6 +403,8 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             progress: None,
             matrix_free,
             unsupported,
+            basis_modes,
+            output_dofs,
         }
     }
 

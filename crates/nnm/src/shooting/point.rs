@@ -47,6 +47,15 @@ pub struct BranchPoint {
     /// on a requested value or on the limit that ended the branch (docs/method.md eqs.
     /// (26a)–(26b)).
     pub label: Option<PointLabel>,
+    /// `max_t |x_d(t)|` over the period for each of the settings' `output_dofs` (docs/method.md
+    /// eq. (87)); empty for location trials.
+    pub peak_displacements: Vec<f64>,
+    /// The motion's largest (mode, harmonic) components by share of its time-averaged linear
+    /// energy (eq. (84)); empty for location trials.
+    pub content: Vec<crate::analysis::ModalComponent>,
+    /// Backbone, tongue or another family, relative to the branch's first point (eq. (86));
+    /// set by [`crate::branch`] as the branch is followed.
+    pub regime: Option<crate::analysis::Regime>,
 }
 
 /// What put a point exactly where it is (the `label` column of `<branch>.csv`).
@@ -118,6 +127,9 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
             unknowns: solution.u.clone(),
             tangent: solution.tangent.clone(),
             label: None,
+            peak_displacements: Vec::new(),
+            content: Vec::new(),
+            regime: None,
         };
         if detail == Detail::Light {
             return Ok(point);
@@ -155,8 +167,11 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
         if !(full_period_residual < 100.0 * self.tolerance) {
             return Err(ShootingError::NotHalfWaveSymmetric(full_period_residual));
         }
+        let motion = self.motion(&evaluation.z0, evaluation.period)?;
         point.floquet = floquet;
         point.full_period_residual = full_period_residual;
+        point.peak_displacements = motion.peak_displacements;
+        point.content = motion.content;
         Ok(point)
     }
 

@@ -46,6 +46,11 @@ pub struct Start {
     /// Whether `basis` spans every elastic mode; a large model's lowest modes only are enough
     /// for the matrix-free formulation (docs/method.md §15), not for the dense one.
     pub complete_basis: bool,
+    /// The linear mode (index in the model's list) of each column of `basis`.
+    pub basis_modes: Vec<usize>,
+    /// The dof of largest amplitude in the starting mode (in `z0` for a start from a state):
+    /// whose peak displacement is recorded unless the settings name `output_dofs`.
+    pub reference_dof: usize,
 }
 
 /// Why a branch could not be started.
@@ -147,6 +152,8 @@ impl Start {
             pin: None,
             phase: None,
             complete_basis: modes.len() >= n,
+            basis_modes: order,
+            reference_dof: largest_entry(&mode.shape),
         })
     }
 
@@ -290,7 +297,8 @@ impl Start {
             )));
         }
         let modes = linear_modes(system)?;
-        let elastic: Vec<&LinearMode> = modes.iter().filter(|m| !m.rigid).collect();
+        let elastic_modes: Vec<usize> = (0..modes.len()).filter(|&k| !modes[k].rigid).collect();
+        let elastic: Vec<&LinearMode> = elastic_modes.iter().map(|&k| &modes[k]).collect();
         let basis: Vec<f64> = elastic.iter().flat_map(|m| m.shape.clone()).collect();
         let shape_norm = linalg::norm(&z0[..n]);
         let amplitude_scale = if shape_norm > 0.0 {
@@ -314,6 +322,8 @@ impl Start {
             pin: None,
             phase: moving.then_some(PhaseCondition::FlowOrthogonal),
             complete_basis: modes.len() >= n,
+            basis_modes: elastic_modes,
+            reference_dof: largest_entry(&z0[..n]),
         })
     }
 
@@ -341,8 +351,20 @@ impl Start {
             }),
             phase_reference: self.z0.clone(),
             complete_basis: self.complete_basis,
+            basis_modes: self.basis_modes.clone(),
+            output_dofs: self.output_dofs(settings),
         };
         Shooting::new(system, setup, settings)
+    }
+
+    /// The dofs whose peak displacements every point of the branch records: the settings'
+    /// `output_dofs`, or the [`Self::reference_dof`].
+    pub fn output_dofs(&self, settings: &Settings) -> Vec<usize> {
+        if settings.output.output_dofs.is_empty() {
+            vec![self.reference_dof]
+        } else {
+            settings.output.output_dofs.clone()
+        }
     }
 
     /// The same start with the unknowns spanning every elastic mode (no symmetry restriction).
@@ -373,6 +395,14 @@ fn mode_at(modes: &[LinearMode], index: usize) -> Result<&LinearMode, StartError
         index,
         count: modes.len(),
     })
+}
+
+/// Index of the entry of largest magnitude (the first of equals; 0 for an empty slice).
+fn largest_entry(values: &[f64]) -> usize {
+    (0..values.len())
+        .rev()
+        .max_by(|&a, &b| values[a].abs().total_cmp(&values[b].abs()))
+        .unwrap_or(0)
 }
 
 /// `M B` for the columns of `basis`.
