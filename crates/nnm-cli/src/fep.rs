@@ -8,7 +8,9 @@ use nnm::analysis::RegimeKind;
 use nnm::bifurcation::{Event, EventKind};
 use nnm::modes::LinearMode;
 use nnm::{Branch, BranchPoint};
-use nnm_plot::{FrequencyEnergyPlot, Marker, MarkerShape, Series, SeriesPoint};
+use nnm_plot::{
+    FrequencyEnergyPlot, Line, LinePlot, Marker, MarkerShape, Series, SeriesPoint, palette_color,
+};
 
 use crate::run::Outcome;
 
@@ -126,6 +128,64 @@ pub fn plot(outcomes: &[Outcome], modes: &[LinearMode], stem: &Path, title: &str
     if let Some(fep) = frequency_energy_plot(outcomes, modes, title, 1.0) {
         fep.write(stem)?;
     }
+    Ok(())
+}
+
+/// `<stem>.png`/`.svg`: the amplitude–frequency backbone of every branch that has points, the
+/// peak displacement of its first output dof against frequency (docs/output.md), stable
+/// stretches solid and unstable ones dashed; nothing when no branch has a point.
+pub fn amplitude_plot(outcomes: &[Outcome], modes: &[LinearMode], stem: &Path) -> Result<()> {
+    let computed: Vec<(&Outcome, &Branch)> = outcomes
+        .iter()
+        .filter_map(|o| Some((o, o.result.as_ref().ok()?)))
+        .filter(|(o, b)| !b.points.is_empty() && !o.info.output_dofs.is_empty())
+        .collect();
+    let mut lines = Vec::new();
+    for (k, (o, branch)) in computed.iter().enumerate() {
+        let color = Some(palette_color(k, computed.len()));
+        let label = format!("{}, x{}", curve_name(o, modes), o.info.output_dofs[0]);
+        let points = &branch.points;
+        let mut start = 0;
+        // Runs of equal stability sharing their end points, as on the frequency–energy plot.
+        for end in 1..=points.len() {
+            let stable = points[start].floquet.stable;
+            if end < points.len() && points[end].floquet.stable == stable {
+                continue;
+            }
+            let last = end.min(points.len() - 1);
+            lines.push(Line {
+                label: if start == 0 {
+                    label.clone()
+                } else {
+                    String::new()
+                },
+                xy: points[start..=last]
+                    .iter()
+                    .map(|p| {
+                        (
+                            p.frequency,
+                            p.peak_displacements.first().copied().unwrap_or(f64::NAN),
+                        )
+                    })
+                    .collect(),
+                dashed: !stable,
+                color,
+                ..Default::default()
+            });
+            start = end;
+        }
+    }
+    if lines.is_empty() {
+        return Ok(());
+    }
+    LinePlot {
+        title: "Amplitude–frequency backbones (dashed: unstable)".into(),
+        x_label: FREQUENCY_AXIS.into(),
+        y_label: "peak displacement over the period (units of the model)".into(),
+        lines,
+        ..Default::default()
+    }
+    .write(stem)?;
     Ok(())
 }
 

@@ -137,6 +137,7 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     let clock = Instant::now();
     let outcomes = compute_all(&job.structure, &modes, requests, out, threads, quiet)?;
     crate::fep::plot(&outcomes, &modes, &out.join("fep"), "Frequency-energy plot")?;
+    crate::fep::amplitude_plot(&outcomes, &modes, &out.join("amplitude"))?;
     let early = stopped_early(&outcomes);
     let verdict = unfinished(&outcomes, &early);
     // Quiet means errors only: nothing on a successful run. When a branch failed, stopped

@@ -28,6 +28,10 @@ const BRANCH: &str = "[[branch]]\nname = \"b\"\nmode = 0\nenergy_max = 1.0\n";
 fn bad_input_gives_one_line_errors() {
     expect_error("[model\nfamily = ", "job.toml:1:");
     expect_error(
+        &format!("{TWO_DOF}{BRANCH}output_dofs = [0, 5]\n"),
+        "branch 1: invalid setting: output_dofs: dof 5 does not exist (the model has 2 dofs",
+    );
+    expect_error(
         "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[2.0, -1.0, 0.0], [-1.0, 2.0, 0.0], [0.0, 0.0, 1.0]]\n",
         "stiffness matrix is 3x3, expected 2x2",
     );
@@ -317,6 +321,65 @@ fn run_writes_csv_and_json_per_branch() {
     assert!((f * t - 2.0 * std::f64::consts::PI).abs() < 1e-12);
     assert!((f - 1.0).abs() < 1e-3);
     assert!(out.join("fep.png").exists() && out.join("fep.svg").exists());
+}
+
+/// Every record of a CSV file, the header first (read with the `csv` crate).
+fn read_csv(path: &std::path::Path) -> Vec<Vec<String>> {
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_path(path)
+        .unwrap()
+        .records()
+        .map(|r| r.unwrap().iter().map(String::from).collect())
+        .collect()
+}
+
+/// The fixed–free chain of crates/nnm/tests/regimes.rs: the summary says where its backbone
+/// enters the 3:1 tongue and leaves for the fourth mode's family, the CSV's regime and peak
+/// columns say the same per point, and `amplitude.png` is drawn from the peaks.
+#[test]
+fn run_says_where_a_branch_enters_a_tongue_and_leaves_its_family() {
+    let dir = scratch("regime");
+    let k = "[[2, -1, 0, 0, 0], [-1, 2, -1, 0, 0], [0, -1, 2, -1, 0], [0, 0, -1, 2, -1], [0, 0, 0, -1, 1]]";
+    let m = "[[1, 0, 0, 0, 0], [0, 1, 0, 0, 0], [0, 0, 1, 0, 0], [0, 0, 0, 1, 0], [0, 0, 0, 0, 1]]";
+    let job = write(
+        &dir,
+        "chain.toml",
+        &format!(
+            "[model]\nmass = {m}\nstiffness = {k}\n[[model.nonlinear]]\ntype = \"cubic\"\ndofs = [0]\ncoefficient = 0.5\n[[branch]]\nname = \"first\"\nmode = 0\nmax_points = 60\nenergy_max = 1e4\noutput_dofs = [0, 4]\n"
+        ),
+    );
+    let out = dir.join("out");
+    let output = nnm(&["run", &job, "--out", out.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("in a 3:1 internal-resonance tongue with mode 1"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("left its family for that of mode 3 at 7ω (7:1)"),
+        "{stdout}"
+    );
+    let rows = read_csv(&out.join("first.csv"));
+    let header = &rows[0];
+    let column = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (regime, ratio) = (column("regime"), column("ratio"));
+    let (peak0, peak4) = (column("peak_x0"), column("peak_x4"));
+    let kinds: Vec<&str> = rows[1..].iter().map(|r| r[regime].as_str()).collect();
+    let tongue = kinds.iter().position(|k| *k == "tongue").unwrap();
+    let other = kinds.iter().position(|k| *k == "other-family").unwrap();
+    assert!(kinds[0] == "backbone" && tongue < other);
+    assert_eq!(rows[1 + tongue][ratio], "3:1");
+    assert_eq!(rows[1 + other][ratio], "7:1");
+    // Peaks are positive lengths; the free end moves more than the grounded first mass in
+    // the first mode.
+    let first: Vec<f64> = [peak0, peak4]
+        .iter()
+        .map(|&c| rows[1][c].parse().unwrap())
+        .collect();
+    assert!(first[0] > 0.0 && first[1] > first[0], "{first:?}");
+    assert!(out.join("amplitude.png").exists() && out.join("amplitude.svg").exists());
 }
 
 /// README: an interrupted run loses nothing — every converged point is already in the CSV,

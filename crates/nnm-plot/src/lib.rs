@@ -35,6 +35,13 @@ pub use fep::{CurveLabels, FrequencyEnergyPlot, Series, SeriesPoint};
 pub use grid::PlotGrid;
 pub use line::{Line, LinePlot};
 
+/// The palette colour of curve `i` of `n` (what a curve without `color` gets), for a caller
+/// that draws one branch as several lines of one colour.
+pub fn palette_color(i: usize, n: usize) -> (u8, u8, u8) {
+    let c = style::palette(i, n);
+    (c.0, c.1, c.2)
+}
+
 use style::FONT;
 
 /// Errors from building or writing a plot. Bad data never panics.

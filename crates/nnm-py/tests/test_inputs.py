@@ -90,6 +90,13 @@ def assert_same_as_cli(branch: nnm.Branch, document: dict) -> None:
     multipliers = np.array([[complex(re, im) for re, im in p["multipliers"]] for p in points])
     assert np.array_equal(branch.multipliers, multipliers)
     assert [e.energy for e in branch.events] == [e["energy"] for e in document["events"]]
+    # What the branch did: the same peaks of the same output dofs, the same regimes.
+    assert branch.output_dofs == document["output_dofs"]
+    assert np.array_equal(branch.peak_displacement, [p["peak_displacements"] for p in points])
+    assert list(branch.regime) == [p["regime"]["kind"] for p in points]
+    partner = [p["regime"]["partner"] for p in points]
+    expected = [np.nan if c is None else c["share"] for c in partner]
+    np.testing.assert_array_equal(branch.partner_share, expected)
 
 
 def test_numpy_arrays_match_job_file_rows_and_the_command_line(write_job, cli, tmp_path) -> None:

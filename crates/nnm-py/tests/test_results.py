@@ -83,6 +83,12 @@ def test_the_frequency_energy_plot_dashes_unstable_parts(two_dof_branch) -> None
     assert len(ax.texts) == len(two_dof_branch.events)
     plot.mode_shape(nnm.modes(nnm.two_dof()).shapes[:, 0])
     plot.time_series(two_dof_branch.motion(0, samples=16))
+    # The amplitude backbone draws the peaks against the frequency, point for point.
+    ax = plot.amplitude([two_dof_branch])
+    xs = np.concatenate([line.get_xdata() for line in ax.get_lines()])
+    ys = np.concatenate([line.get_ydata() for line in ax.get_lines()])
+    assert set(xs) == set(two_dof_branch.frequency)
+    assert set(ys) == set(two_dof_branch.peak_displacement[:, 0])
     plt.close("all")
 
 

@@ -159,9 +159,12 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     let mut regular: Option<BranchPoint> = None;
     let mut regular_points = 0;
     let mut beyond: Option<BranchPoint> = None;
-    // The modes the branch calls home, from its first point (docs/method.md eq. (85)).
+    // Every delivered point's motion is measured (peaks, modal content) and its regime read
+    // against the modes the branch calls home, from its first point (docs/method.md
+    // §18) — not the trials of steps and locations, which nobody sees.
     let mut home: Option<Home> = None;
-    let mut classify = |point: &mut BranchPoint| {
+    let mut describe = |shooting: &mut Shooting<'_, S>, point: &mut BranchPoint| {
+        shooting.measure(point);
         if home.is_none() {
             home = Home::from_first_point(&point.content);
         }
@@ -187,7 +190,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
         };
         match item {
             Item::Event(Found::Event(mut event)) => {
-                classify(&mut event.point);
+                describe(continuation.problem_mut(), &mut event.point);
                 let flow = observer.borrow_mut().event(&event);
                 events.push(event);
                 if flow.is_break() {
@@ -203,7 +206,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                     continue;
                 }
                 hit[request] = true;
-                classify(&mut point);
+                describe(continuation.problem_mut(), &mut point);
                 let flow = observer.borrow_mut().point(&point);
                 points.push(point);
                 if flow.is_break() {
@@ -215,7 +218,6 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                 missed.push(MissedRequest { label, value, why });
             }
             Item::Point(mut point) => {
-                classify(&mut point);
                 // A point past a limit is replaced by the point exactly on it (below).
                 if let Some((reason, _)) = passed_limit(limits, start.omega, &point)
                     && regular.is_some()
@@ -223,6 +225,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                     beyond = Some(point);
                     break reason;
                 }
+                describe(continuation.problem_mut(), &mut point);
                 let flow = observer.borrow_mut().point(&point);
                 let (energy, frequency) = (point.energy, point.frequency);
                 regular = Some(point.clone());
@@ -253,7 +256,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                 point_on_limit(&mut shooting, settings, start.omega, previous, &next);
             counters.newton_iterations += iterations;
             let mut last = exact.unwrap_or(next);
-            classify(&mut last);
+            describe(&mut shooting, &mut last);
             // The branch stops here whatever the observer answers.
             let _ = observer.borrow_mut().point(&last);
             points.push(last);

@@ -108,22 +108,39 @@ pub(super) fn localization(localization: &Localization, out: &Path) -> Result<()
         localization.sectors,
         &localization.peak,
     );
-    let panel = |offset: usize, what: &str| LinePlot {
-        title: format!("{what} displacement, all {sectors} sectors"),
-        x_label: "t / T".into(),
-        y_label: "displacement".into(),
-        lines: (0..sectors)
-            .map(|i| Line {
-                label: format!("sector {}", i + 1),
-                xy: states
-                    .iter()
-                    .enumerate()
-                    .map(|(k, z)| (k as f64 / SAMPLES as f64, z[2 * i + offset]))
-                    .collect(),
-                ..Default::default()
-            })
-            .collect(),
-        ..Default::default()
+    // Only the sectors that move are named: the legend stays short and says where the motion
+    // is localized.
+    let amplitude = |i: usize, offset: usize| {
+        states
+            .iter()
+            .map(|z| z[2 * i + offset].abs())
+            .fold(0.0, f64::max)
+    };
+    let panel = |offset: usize, what: &str| {
+        let largest = (0..sectors)
+            .map(|i| amplitude(i, offset))
+            .fold(0.0, f64::max);
+        LinePlot {
+            title: format!("{what} displacements, {sectors} sectors (named: the moving ones)"),
+            x_label: "t / T".into(),
+            y_label: "displacement".into(),
+            lines: (0..sectors)
+                .map(|i| Line {
+                    label: if amplitude(i, offset) >= 0.1 * largest {
+                        format!("sector {}", i + 1)
+                    } else {
+                        String::new()
+                    },
+                    xy: states
+                        .iter()
+                        .enumerate()
+                        .map(|(k, z)| (k as f64 / SAMPLES as f64, z[2 * i + offset]))
+                        .collect(),
+                    ..Default::default()
+                })
+                .collect(),
+            ..Default::default()
+        }
     };
     PlotGrid {
         title: format!(
@@ -341,18 +358,29 @@ pub(super) fn travelling(
     backbones: &Backbones,
     out: &Path,
 ) -> Result<()> {
+    // Each standing wave wide and light, its travelling wave narrow and dark over it: the two
+    // coincide in the linear limit, and both stay visible there.
+    type Rgb = (u8, u8, u8);
+    const PAIRS: [(Rgb, Rgb); 2] = [
+        ((31, 119, 180), (160, 200, 232)),
+        ((200, 40, 40), (244, 170, 165)),
+    ];
     let mut series = Vec::new();
-    for w in &travelling.waves {
-        series.push(series_of(
-            &format!("({}) travelling", w.label),
-            &w.branch,
-            1.0,
-        ));
-        series.push(series_of(
-            &format!("({}) standing", w.label),
-            backbones.branch(&w.label),
-            1.0,
-        ));
+    for (k, w) in travelling.waves.iter().enumerate() {
+        let (dark, light) = PAIRS[k % PAIRS.len()];
+        series.push(Series {
+            color: Some(dark),
+            ..series_of(&format!("({}) travelling", w.label), &w.branch, 1.0)
+        });
+        series.push(Series {
+            color: Some(light),
+            width: Some(7),
+            ..series_of(
+                &format!("({}) standing", w.label),
+                backbones.branch(&w.label),
+                1.0,
+            )
+        });
     }
     FrequencyEnergyPlot {
         title: "Travelling and standing waves".into(),
@@ -373,8 +401,8 @@ pub(super) fn travelling(
             };
             LinePlot {
                 title: format!("({}) at E = {:.3}", w.label, w.energy),
-                x_label: "q_cos".into(),
-                y_label: "q_sin".into(),
+                x_label: "q_c = φ_cᵀ M x (cos standing wave)".into(),
+                y_label: "q_s = φ_sᵀ M x (sin standing wave)".into(),
                 lines: vec![
                     line("travelling", &w.orbits[0]),
                     line("standing", &w.orbits[1]),

@@ -130,7 +130,7 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
     let motions = tongue::representative_motions(structure, &tongue)?;
     tables::tongue(&tongue, out)?;
     figures::tongue(&tongue, &junction, &motions, backbones.branch("0,6"), out)?;
-    report.tongue(&tongue, &junction);
+    report.tongue(&tongue, &junction, &modes);
 
     // 6. The tongue again with finite differences (full study only): the cost comparison.
     if options.quick {

@@ -1,13 +1,15 @@
 //! The report's sections on the 3:1 tongue (5) and on the cost of its Jacobians (6): wording
 //! only, the numbers come from `tongue` and `junction`.
 
+use nnm::modes::LinearMode;
+
 use super::junction::JunctionCheck;
 use super::report::Report;
 use super::tongue::{Tongue, junction_agreement};
 
 impl Report {
     /// Section 5: the tongue, its junction with (1,12) and the check from the (1,12) side.
-    pub fn tongue(&mut self, tongue: &Tongue, junction: &JunctionCheck) {
+    pub fn tongue(&mut self, tongue: &Tongue, junction: &JunctionCheck, modes: &[LinearMode]) {
         let (e_junction, f_junction) = tongue.junction();
         let (f112, mismatch) = (junction.reference_frequency, junction.mismatch);
         let fold_energies: Vec<String> = tongue
@@ -54,6 +56,7 @@ impl Report {
              (1,12) hardens much faster than (0,6).",
             junction.linear_ratio
         ));
+        self.line(&regime_sentence(tongue, modes));
         self.figure(
             "tongue.png",
             "The (0,6) backbone, its continuation along the tongue, and the (1,12) backbone drawn at \
@@ -115,5 +118,48 @@ impl Report {
             fd.seconds,
             fd.seconds / sensitivity.seconds,
         ));
+    }
+}
+
+/// What the points' own regime labels (docs/method.md §18) say along the tongue: where the
+/// branch is first labelled a tongue and where it is on another family, with the partner.
+fn regime_sentence(tongue: &Tongue, modes: &[LinearMode]) -> String {
+    use nnm::analysis::RegimeKind;
+    let first = |kind: RegimeKind| {
+        tongue
+            .points
+            .iter()
+            .map(|t| &t.point)
+            .find(|p| p.regime.is_some_and(|r| r.kind == kind))
+    };
+    let describe = |p: &nnm::BranchPoint| {
+        let r = p.regime.expect("found by its regime");
+        let partner = r.partner.expect("a tongue or another family has a partner");
+        format!(
+            "point {} (E = {:.4e}, ω = {:.6}), ({}) at {}ω holding {:.0}% of the energy",
+            p.index,
+            p.energy,
+            p.frequency,
+            modes[partner.mode].label(),
+            partner.harmonic,
+            100.0 * partner.share
+        )
+    };
+    match (first(RegimeKind::Tongue), first(RegimeKind::OtherFamily)) {
+        (Some(t), Some(o)) => format!(
+            "Each point's own regime label (the `regime` column of `tongue-0-6.csv`, read from \
+             its modal harmonic content alone) finds the same story: `tongue` from {}; \
+             `other-family` from {} — the (1,12) family at a third of the period.",
+            describe(t),
+            describe(o)
+        ),
+        (Some(t), None) => format!(
+            "Each point's own regime label (the `regime` column of `tongue-0-6.csv`) marks the \
+             tongue from {}, but no point as on the (1,12) family.",
+            describe(t)
+        ),
+        _ => "The points' regime labels (`tongue-0-6.csv`) do not mark the tongue: its partner \
+              never holds a tenth of the energy."
+            .into(),
     }
 }

@@ -2,6 +2,8 @@
 
 - :func:`fep`: the frequency–energy plot of branches (log energy; stable parts solid,
   unstable dashed; events marked F, BP, PD, NS), as ``nnm run`` draws ``fep.png``;
+- :func:`amplitude`: the amplitude–frequency backbone (peak displacement of an output dof
+  against frequency), as ``nnm run`` draws ``amplitude.png``;
 - :func:`mode_shape`: a linear mode's or an NNM's deflected shape, dof by dof;
 - :func:`time_series`: a point's motion over one period.
 
@@ -65,9 +67,41 @@ def fep(
                 ax.plot(e.energy, e.frequency, "o", color=colour, markersize=4)
                 ax.annotate(e.abbreviation, (e.energy, e.frequency), textcoords="offset points", xytext=(4, 4))
     ax.set_xscale("log")
-    ax.set_xlabel("energy")
-    ax.set_ylabel("frequency (rad/s)")
+    ax.set_xlabel("total energy E = kinetic + potential (units of the model)")
+    ax.set_ylabel("frequency ω (rad/s)")
     ax.set_title("Frequency–energy plot (dashed: unstable)")
+    ax.legend()
+    return ax
+
+
+def amplitude(
+    branches: Iterable["Branch"],
+    ax: "matplotlib.axes.Axes | None" = None,
+    labels: Sequence[str] | None = None,
+    dof: int = 0,
+    hz: bool = False,
+) -> "matplotlib.axes.Axes":
+    """The amplitude–frequency backbone of every branch: ``peak_displacement[:, dof]`` (the
+    ``dof``-th of the branch's ``output_dofs``) against frequency (rad/s, or Hz with ``hz``),
+    stable parts solid, unstable dashed — the curve a test engineer compares with a measured
+    backbone."""
+    ax = _axes(ax)
+    for k, branch in enumerate(branches):
+        label = labels[k] if labels is not None else f"mode {branch.mode_label or branch.mode}"
+        label += f", x{branch.output_dofs[dof]}"
+        colour = f"C{k % 10}"
+        frequency = branch.frequency_hz if hz else branch.frequency
+        for start, stop, stable in _runs(branch.stable):
+            ax.plot(
+                frequency[start:stop],
+                branch.peak_displacement[start:stop, dof],
+                color=colour,
+                linestyle="-" if stable else "--",
+                label=label if start == 0 else None,
+            )
+    ax.set_xlabel("frequency (Hz)" if hz else "frequency ω (rad/s)")
+    ax.set_ylabel("peak displacement over the period (units of the model)")
+    ax.set_title("Amplitude–frequency backbones (dashed: unstable)")
     ax.legend()
     return ax
 
@@ -101,4 +135,4 @@ def time_series(
     return ax
 
 
-__all__ = ["fep", "mode_shape", "time_series"]
+__all__ = ["amplitude", "fep", "mode_shape", "time_series"]

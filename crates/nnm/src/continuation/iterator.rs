@@ -104,6 +104,12 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
         self.problem
     }
 
+    /// The problem, to measure what a delivered point needs beyond the continuation (between
+    /// steps: the continuation's own state is not touched).
+    pub fn problem_mut(&mut self) -> &mut P {
+        self.problem
+    }
+
     /// The last accepted solution.
     pub fn current(&self) -> Option<&Solution> {
         self.current.as_ref().map(|(s, _)| s)

@@ -34,7 +34,9 @@ pub use start::{Start, StartError};
 
 use crate::continuation::Linearization;
 use crate::floquet::{DenseFloquet, FloquetSolver};
-use crate::integrate::{Flow, IntegrationError, IntegrationStats, Integrator, Steps, Tolerances};
+use crate::integrate::{
+    Flow, IntegrationError, IntegrationMethod, IntegrationStats, Integrator, Steps, Tolerances,
+};
 use crate::linalg::{self, Mat};
 use crate::model::{Block, BlockMut, MechanicalSystem};
 use crate::settings::Settings;
@@ -216,6 +218,10 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     basis_modes: Vec<usize>,
     /// The dofs whose peak displacements every point records.
     output_dofs: Vec<usize>,
+    /// The integrator takes equal steps whose number it sets from a global error estimate
+    /// (the collocation methods): the motion of a converged point is then sampled on the
+    /// shooting's own step, not re-estimated for every sample (10× the cost on the beams).
+    equal_steps: bool,
 }
 
 /// A progress hook: called with every evaluation.
@@ -405,6 +411,10 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             unsupported,
             basis_modes,
             output_dofs,
+            equal_steps: matches!(
+                method,
+                IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 | IntegrationMethod::Radau5
+            ),
         }
     }
 

@@ -31,6 +31,16 @@ pub struct Motion {
 }
 
 impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
+    /// Measures a delivered point's motion ([`Self::motion`]) into its `peak_displacements`
+    /// and `content`; a measurement that fails (the integration of a converged orbit does not
+    /// in practice) leaves them empty rather than losing the point.
+    pub fn measure(&mut self, point: &mut super::BranchPoint) {
+        if let Ok(motion) = self.motion(&point.z0, point.period) {
+            point.peak_displacements = motion.peak_displacements;
+            point.content = motion.content;
+        }
+    }
+
     /// The output dofs whose peak displacements [`Self::motion`] measures.
     pub fn output_dofs(&self) -> &[usize] {
         &self.output_dofs
@@ -50,12 +60,25 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         let integrated = shift
             .as_ref()
             .map_or(MOTION_SAMPLES, |s| MOTION_SAMPLES / s.divisions);
+        // An equal-step integrator takes the shooting's own step (at most) over each stretch;
+        // an adaptive one chooses, starting from its last step.
+        let shooting_step = self.first_step.filter(|_| self.equal_steps);
+        let grid = |duration: f64| -> Option<Vec<f64>> {
+            let step = shooting_step?;
+            let count = (duration / step).ceil().max(1.0) as usize;
+            Some(vec![duration / count as f64; count])
+        };
         let mut states = Vec::with_capacity(MOTION_SAMPLES);
         states.push(z0.to_vec());
         let mut first_step = None;
+        let segment = grid(h);
         for _ in 1..integrated {
             let last = states.last().expect("non-empty");
-            let flow = self.integrate(last, h, None, Steps::Adaptive { first_step })?;
+            let steps = match &segment {
+                Some(grid) => Steps::Replay(grid),
+                None => Steps::Adaptive { first_step },
+            };
+            let flow = self.integrate(last, h, None, steps)?;
             first_step = flow.steps.last().copied();
             states.push(flow.z);
         }
@@ -73,7 +96,11 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             let mut peak = x.iter().fold(0.0f64, |m, a| m.max(a.abs()));
             for (j, tau) in peak_candidates(&x, &v, h) {
                 let at = if tau > 1e-12 * h {
-                    let steps = Steps::Adaptive { first_step };
+                    let partial = grid(tau);
+                    let steps = match &partial {
+                        Some(grid) => Steps::Replay(grid),
+                        None => Steps::Adaptive { first_step },
+                    };
                     self.integrate(&states[j], tau, None, steps)?.z
                 } else {
                     states[j].clone()

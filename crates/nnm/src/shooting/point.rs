@@ -48,10 +48,10 @@ pub struct BranchPoint {
     /// (26a)–(26b)).
     pub label: Option<PointLabel>,
     /// `max_t |x_d(t)|` over the period for each of the settings' `output_dofs` (docs/method.md
-    /// eq. (87)); empty for location trials.
+    /// eq. (87)); measured by [`crate::branch`] for the points it delivers, empty otherwise.
     pub peak_displacements: Vec<f64>,
     /// The motion's largest (mode, harmonic) components by share of its time-averaged linear
-    /// energy (eq. (84)); empty for location trials.
+    /// energy (eq. (84)); measured like `peak_displacements`.
     pub content: Vec<crate::analysis::ModalComponent>,
     /// Backbone, tongue or another family, relative to the branch's first point (eq. (86));
     /// set by [`crate::branch`] as the branch is followed.
@@ -167,11 +167,8 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
         if !(full_period_residual < 100.0 * self.tolerance) {
             return Err(ShootingError::NotHalfWaveSymmetric(full_period_residual));
         }
-        let motion = self.motion(&evaluation.z0, evaluation.period)?;
         point.floquet = floquet;
         point.full_period_residual = full_period_residual;
-        point.peak_displacements = motion.peak_displacements;
-        point.content = motion.content;
         Ok(point)
     }
 
