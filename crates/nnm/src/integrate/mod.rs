@@ -52,6 +52,21 @@ pub trait Integrator {
         ))
     }
 
+    /// The states at the ends of `samples` equal divisions of `duration` (the start excluded,
+    /// the end included), without sensitivities; `steps` applies to each division. With them,
+    /// the whole integration's work counters and step sizes. The default integrates each
+    /// division by [`Integrator::flow`]; an integrator that keeps work from step to step (a
+    /// factorised stage matrix) overrides it to do all in one pass.
+    fn flow_sampled(
+        &mut self,
+        z0: &[f64],
+        duration: f64,
+        samples: usize,
+        steps: Steps<'_>,
+    ) -> Result<(Flow, Vec<Vec<f64>>), IntegrationError> {
+        sampled_by_divisions(self, z0, duration, samples, steps)
+    }
+
     /// The vector field `g(z)` (eq. (3)).
     fn field(&self, z: &[f64], out: &mut [f64]);
 
@@ -63,6 +78,40 @@ pub trait Integrator {
 
     /// Sets the local error tolerances (shooting scales the absolute one to the motion).
     fn set_tolerances(&mut self, tolerances: Tolerances);
+}
+
+/// [`Integrator::flow_sampled`] one division at a time (an adaptive integration starts each
+/// division with the previous one's last step).
+pub(crate) fn sampled_by_divisions<I: Integrator + ?Sized>(
+    integrator: &mut I,
+    z0: &[f64],
+    duration: f64,
+    samples: usize,
+    steps: Steps<'_>,
+) -> Result<(Flow, Vec<Vec<f64>>), IntegrationError> {
+    let h = duration / samples.max(1) as f64;
+    let mut states: Vec<Vec<f64>> = Vec::with_capacity(samples);
+    let mut total = Flow {
+        z: z0.to_vec(),
+        sensitivity: Vec::new(),
+        columns: 0,
+        steps: Vec::new(),
+        stats: IntegrationStats::default(),
+    };
+    for _ in 0..samples.max(1) {
+        let division = match steps {
+            Steps::Adaptive { first_step } => Steps::Adaptive {
+                first_step: total.steps.last().copied().or(first_step),
+            },
+            replay => replay,
+        };
+        let flow = integrator.flow(&total.z, h, None, division)?;
+        total.stats += flow.stats;
+        total.steps.extend(&flow.steps);
+        total.z.clone_from(&flow.z);
+        states.push(flow.z);
+    }
+    Ok((total, states))
 }
 
 /// The derivative of one integration's discrete flow map, `D ↦ Φ(T) D`, recorded by

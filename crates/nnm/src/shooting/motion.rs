@@ -68,19 +68,24 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             let count = (duration / step).ceil().max(1.0) as usize;
             Some(vec![duration / count as f64; count])
         };
+        let segment = grid(h);
+        let steps = match &segment {
+            Some(grid) => Steps::Replay(grid),
+            None => Steps::Adaptive { first_step: None },
+        };
+        // Samples 1 to `integrated − 1` in one integration; the rest by the shift.
         let mut states = Vec::with_capacity(MOTION_SAMPLES);
         states.push(z0.to_vec());
         let mut first_step = None;
-        let segment = grid(h);
-        for _ in 1..integrated {
-            let last = states.last().expect("non-empty");
-            let steps = match &segment {
-                Some(grid) => Steps::Replay(grid),
-                None => Steps::Adaptive { first_step },
-            };
-            let flow = self.integrate(last, h, None, steps)?;
+        if integrated > 1 {
+            self.scale_tolerances(z0);
+            let divisions = integrated - 1;
+            let (flow, sampled) =
+                self.integrator
+                    .flow_sampled(z0, h * divisions as f64, divisions, steps)?;
+            self.count_integration(&flow);
             first_step = flow.steps.last().copied();
-            states.push(flow.z);
+            states.extend(sampled);
         }
         if let Some(shift) = &shift {
             for j in integrated..MOTION_SAMPLES {
