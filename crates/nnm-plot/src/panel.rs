@@ -313,7 +313,7 @@ impl Panel<'_> {
                 let (x, y) = to_px(&end);
                 let (w, h) = plot.estimate_text_size(c.label, &style).map_err(err)?;
                 let (w, h, pad, g) = (w as i32, h as i32, px(2.0), px(5.0));
-                let spots = [
+                let mut spots = vec![
                     (x + g, y - h / 2),
                     (x + g, y - h - g),
                     (x + g, y + g),
@@ -322,18 +322,38 @@ impl Panel<'_> {
                     (x - g - w, y - h / 2),
                     (x - w / 2, y - h - g),
                     (x - w / 2, y + g),
-                    (x + g, y - 2 * h - g),
-                    (x + g, y + h + g),
-                    (x - g - w, y - 2 * h - g),
-                    (x - g - w, y + h + g),
                 ];
+                // Where curves end close together, further out, joined to the end by a
+                // leader line.
+                let near = spots.len();
+                for k in 1..=6 {
+                    let step = k * (h + 2 * pad);
+                    for dx in [x + 3 * g, x - 3 * g - w] {
+                        spots.push((dx, y - h / 2 - step));
+                        spots.push((dx, y - h / 2 + step));
+                    }
+                }
                 let crowd = Crowd {
                     frame: &frame,
                     placed: &placed,
                     symbols: &symbols,
                     occupied: &occupied,
                 };
-                let ((lx, ly), b) = crowd.best_spot(&spots, (w, h), pad, |_| 0);
+                // A distant spot only to avoid an overlap: it costs more than any curve it
+                // would hide near the end.
+                let far = |b: &Rect| {
+                    let d2 = b.distance2((x, y));
+                    usize::from(d2 > i64::from(3 * (h + g)).pow(2)) * 600
+                };
+                let ((lx, ly), b) = crowd.best_spot(&spots, (w, h), pad, far);
+                let chosen = spots.iter().position(|&p| p == (lx, ly)).unwrap_or(0);
+                if chosen >= near {
+                    // From the curve's end to the middle of the label's nearer side.
+                    let side = if lx > x { b.x0 } else { b.x1 };
+                    let leader = [(x, y), (side, (b.y0 + b.y1) / 2)];
+                    plot.draw(&PathElement::new(leader, c.color.stroke_width(1)))
+                        .map_err(err)?;
+                }
                 plot.draw(&Rectangle::new(
                     [(b.x0, b.y0), (b.x1, b.y1)],
                     WHITE.mix(0.75).filled(),

@@ -146,6 +146,7 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
     };
     output::modes_csv(&study, &out.join("modes.csv"))?;
     output::frequency_energy_plot(&study, &out.join("fep"))?;
+    output::amplitude_plot(&study, &out.join("amplitude"))?;
     output::normalised_frequency_energy_plot(&study, &out.join("fep-normalised"))?;
     output::mode_shapes(&study, &out.join("mode-shapes"))?;
     output::report(
@@ -209,8 +210,9 @@ fn job_text(beam: &CantileverBeam, branches: usize) -> String {
         text.push_str(&format!("{assignment:<26}# {comment}\n"));
     }
     text.push_str(&format!(
-        "\n[settings]\nfrequency_shift_max = {}\n",
-        toml_float(FREQUENCY_SHIFT_MAX)
+        "\n[settings]\nfrequency_shift_max = {}\noutput_dofs = [{}]          # the tip's deflection w (node k: w is dof 2k-2, the rotation 2k-1)\n",
+        toml_float(FREQUENCY_SHIFT_MAX),
+        2 * beam.elements - 2
     ));
     for k in 0..branches {
         text.push_str(&format!(

@@ -67,6 +67,38 @@ pub(super) fn frequency_energy_plot(study: &BeamStudy, stem: &Path) -> Result<()
     Ok(())
 }
 
+/// `amplitude`: the tip's peak deflection (mm) against frequency (Hz) along every branch — the
+/// amplitude–frequency backbone a vibration test measures.
+pub(super) fn amplitude_plot(study: &BeamStudy, stem: &Path) -> Result<()> {
+    let lines: Vec<Line> = study
+        .outcomes
+        .iter()
+        .filter_map(|o| Some((o, o.result.as_ref().ok()?)))
+        .filter(|(_, b)| !b.points.is_empty())
+        .map(|(o, branch)| Line {
+            label: mode_name(o),
+            xy: branch
+                .points
+                .iter()
+                .filter_map(|p| Some((hz(p.frequency), 1e3 * p.peak_displacements.first()?)))
+                .collect(),
+            ..Default::default()
+        })
+        .collect();
+    if lines.is_empty() {
+        return Ok(());
+    }
+    LinePlot {
+        title: "ECL cantilever beam: tip deflection along each branch".into(),
+        x_label: "frequency (Hz)".into(),
+        y_label: "peak tip deflection over the period (mm)".into(),
+        lines,
+        ..Default::default()
+    }
+    .write(stem)?;
+    Ok(())
+}
+
 /// `fep-normalised`: the same branches with each one's frequencies divided by its linear
 /// frequency, so that the modes' hardening compares on one scale.
 pub(super) fn normalised_frequency_energy_plot(study: &BeamStudy, stem: &Path) -> Result<()> {
