@@ -189,8 +189,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
             None => break StopReason::MaxPoints,
         };
         match item {
-            Item::Event(Found::Event(mut event)) => {
-                describe(continuation.problem_mut(), &mut event.point);
+            Item::Event(Found::Event(event)) => {
                 let flow = observer.borrow_mut().event(&event);
                 events.push(event);
                 if flow.is_break() {
