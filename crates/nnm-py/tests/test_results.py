@@ -130,3 +130,27 @@ def test_branches_and_failures_pickle_for_other_processes(two_dof_branch) -> Non
     error = pickle.loads(pickle.dumps(raised.value))
     assert type(error) is nnm.ContinuationError and str(error) == str(raised.value)
     assert np.array_equal(error.branch.energy, raised.value.branch.energy)
+
+
+def test_regimes_of_the_fixed_free_chain_are_marked_on_the_plot() -> None:
+    """The chain of crates/nnm/tests/regimes.rs: its first backbone enters a 3:1 tongue with
+    mode 1, then turns into mode 3's family at 7:1; `plot.fep` rings both entries."""
+    pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    from nnm import plot
+
+    k = 2 * np.eye(5) - np.eye(5, k=1) - np.eye(5, k=-1)
+    k[4, 4] = 1.0
+    chain = nnm.Model(np.eye(5), k, nonlinear=[nnm.Cubic(dofs=[0], coefficient=0.5)])
+    branch = nnm.backbone(chain, 0, max_points=60, energy_max=1e4)
+    kinds = list(branch.regime)
+    tongue, other = kinds.index("tongue"), kinds.index("other-family")
+    assert kinds[0] == "backbone" and tongue < other
+    assert (branch.partner_mode[tongue], branch.ratio[tongue]) == (1, "3:1")
+    assert (branch.partner_mode[other], branch.ratio[other]) == (3, "7:1")
+    assert 0.1 <= branch.partner_share[tongue] < 0.5
+    ax = plot.fep([branch])
+    texts = [t.get_text() for t in ax.texts]
+    assert "3:1" in texts and "→7:1" in texts
+    plt.close("all")

@@ -42,6 +42,18 @@ def _runs(stable: np.ndarray) -> list[tuple[int, int, bool]]:
     return runs
 
 
+def _regime_entries(branch: "Branch") -> list[tuple[int, str]]:
+    """The first point of each stretch in a tongue or on another family, with its ratio
+    (``"3:1"``, ``"→3:1"`` for another family), as ``nnm run`` marks them on ``fep.png``."""
+    entries, previous = [], None
+    for i, (kind, partner, ratio) in enumerate(zip(branch.regime, branch.partner_mode, branch.ratio)):
+        key = (kind, None if np.isnan(partner) else int(partner))
+        if key != previous and kind in ("tongue", "other-family"):
+            entries.append((i, ("→" if kind == "other-family" else "") + ratio))
+        previous = key
+    return entries
+
+
 def fep(
     branches: Iterable["Branch"],
     ax: "matplotlib.axes.Axes | None" = None,
@@ -49,7 +61,8 @@ def fep(
     events: bool = True,
 ) -> "matplotlib.axes.Axes":
     """Frequency (rad/s) against energy (log axis) of every branch: stable parts solid,
-    unstable dashed, one colour per branch, located events marked with their abbreviation."""
+    unstable dashed, one colour per branch, located events marked with their abbreviation and
+    the entries into internal resonances ringed with their ratio (``events=False``: neither)."""
     ax = _axes(ax)
     for k, branch in enumerate(branches):
         label = labels[k] if labels is not None else f"mode {branch.mode_label or branch.mode}"
@@ -66,6 +79,9 @@ def fep(
             for e in branch.events:
                 ax.plot(e.energy, e.frequency, "o", color=colour, markersize=4)
                 ax.annotate(e.abbreviation, (e.energy, e.frequency), textcoords="offset points", xytext=(4, 4))
+            for i, text in _regime_entries(branch):
+                ax.plot(branch.energy[i], branch.frequency[i], "o", mfc="none", color=colour, markersize=7)
+                ax.annotate(text, (branch.energy[i], branch.frequency[i]), textcoords="offset points", xytext=(4, -12))
     ax.set_xscale("log")
     ax.set_xlabel("total energy E = kinetic + potential (units of the model)")
     ax.set_ylabel("frequency ω (rad/s)")
