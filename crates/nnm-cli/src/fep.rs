@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use anyhow::Result;
-use nnm::analysis::RegimeKind;
+use nnm::analysis::{RegimeKind, regime_changes};
 use nnm::bifurcation::{Event, EventKind};
 use nnm::modes::LinearMode;
 use nnm::{Branch, BranchPoint};
@@ -52,28 +52,26 @@ pub fn event_markers<'a>(events: impl Iterator<Item = &'a Event>, labelled: bool
 /// (86)): a ring at the first point of each such stretch, labelled with the ratio (`3:1`,
 /// `→3:1` for another family).
 pub fn regime_markers(points: &[BranchPoint]) -> Vec<Marker> {
-    let mut markers = Vec::new();
-    let mut previous = None;
-    for p in points {
-        let Some(regime) = p.regime else { continue };
-        let key = (regime.kind, regime.partner.map(|c| c.mode));
-        if previous != Some(key) && regime.kind != RegimeKind::Backbone {
+    regime_changes(points.iter().map(|p| p.regime.as_ref()))
+        .into_iter()
+        .filter_map(|k| {
+            let (p, regime) = (&points[k], points[k].regime?);
             let ratio = regime
                 .ratio
                 .map_or(String::new(), |(m, n)| format!("{m}:{n}"));
-            markers.push(Marker {
+            let label = match regime.kind {
+                RegimeKind::Backbone => return None,
+                RegimeKind::OtherFamily => format!("→{ratio}"),
+                RegimeKind::Tongue => ratio,
+            };
+            Some(Marker {
                 x: p.energy,
                 y: p.frequency,
-                label: match regime.kind {
-                    RegimeKind::OtherFamily => format!("→{ratio}"),
-                    _ => ratio,
-                },
+                label,
                 shape: MarkerShape::Ring,
-            });
-        }
-        previous = Some(key);
-    }
-    markers
+            })
+        })
+        .collect()
 }
 
 /// What the symbols present among `markers` mean, for the plot's key.

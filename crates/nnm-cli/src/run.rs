@@ -6,7 +6,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
-use nnm::analysis::RegimeKind;
+use nnm::analysis::{RegimeKind, regime_changes};
 use nnm::bifurcation::{Event, switch_branch};
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, linear_modes};
@@ -471,19 +471,12 @@ pub fn regime_notes(points: &[BranchPoint], linear: f64, modes: &[LinearMode]) -
         _ => format!("mode {mode}"),
     };
     let mut notes = Vec::new();
-    let mut previous: Option<(RegimeKind, Option<usize>)> = None;
-    for p in points {
+    for k in regime_changes(points.iter().map(|p| p.regime.as_ref())) {
+        let p = &points[k];
         let Some(regime) = &p.regime else { continue };
         let partner = regime
             .partner
             .filter(|_| regime.kind != RegimeKind::Backbone);
-        let key = (regime.kind, partner.map(|c| c.mode));
-        let first = previous.is_none();
-        if previous == Some(key) || (first && regime.kind == RegimeKind::Backbone) {
-            previous = Some(key);
-            continue;
-        }
-        previous = Some(key);
         let ratio = regime
             .ratio
             .map_or(String::new(), |(m, n)| format!("{m}:{n}"));

@@ -9,7 +9,7 @@ mod regime;
 pub use peak::{local_peak, peak_candidates};
 pub use regime::{
     HOME_SHARE, Home, ModalComponent, NEAR_DEGENERATE, REPORTED_SHARE, RESONANCE_WINDOW, Regime,
-    RegimeKind, TONGUE_SHARE, modal_content,
+    RegimeKind, TONGUE_SHARE, modal_content, regime_changes,
 };
 
 use std::f64::consts::PI;

@@ -268,6 +268,28 @@ impl Home {
     }
 }
 
+/// Where a branch's regime changes: the index of the first point of each stretch of equal
+/// regime and partner mode, the opening backbone stretch left out (it is no change). Points
+/// without a regime are skipped.
+pub fn regime_changes<'a>(regimes: impl IntoIterator<Item = Option<&'a Regime>>) -> Vec<usize> {
+    let mut changes = Vec::new();
+    let mut previous = None;
+    for (index, regime) in regimes.into_iter().enumerate() {
+        let Some(regime) = regime else { continue };
+        let partner = regime
+            .partner
+            .filter(|_| regime.kind != RegimeKind::Backbone)
+            .map(|c| c.mode);
+        let key = (regime.kind, partner);
+        let opening = previous.is_none() && regime.kind == RegimeKind::Backbone;
+        if previous != Some(key) && !opening {
+            changes.push(index);
+        }
+        previous = Some(key);
+    }
+    changes
+}
+
 /// Each mode's total share, over its harmonics.
 fn mode_shares(content: &[ModalComponent]) -> Vec<(usize, f64)> {
     let mut shares: Vec<(usize, f64)> = Vec::new();
@@ -359,6 +381,38 @@ mod tests {
         let home = Home::from_first_point(&content(0.0)).unwrap();
         let r = home.classify(&content(0.5), 1.0);
         assert_eq!((r.kind, r.ratio), (RegimeKind::Tongue, Some((1, 1))));
+    }
+
+    #[test]
+    fn regime_changes_are_the_first_points_of_each_stretch() {
+        let at = |kind, mode| Regime {
+            kind,
+            partner: Some(ModalComponent {
+                mode,
+                harmonic: 3,
+                linear_frequency: 1.0,
+                share: 0.2,
+            }),
+            ratio: Some((3, 1)),
+        };
+        let (b, t, o) = (
+            RegimeKind::Backbone,
+            RegimeKind::Tongue,
+            RegimeKind::OtherFamily,
+        );
+        // A backbone's partner may change without it being a change of regime.
+        let regimes = [
+            at(b, 1),
+            at(b, 2),
+            at(t, 1),
+            at(t, 1),
+            at(t, 2),
+            at(o, 2),
+            at(b, 1),
+        ];
+        let list: Vec<Option<&Regime>> = regimes.iter().map(Some).collect();
+        assert_eq!(regime_changes(list), vec![2, 4, 5, 6]);
+        assert_eq!(regime_changes([None, Some(&regimes[2])]), vec![1]);
     }
 
     #[test]

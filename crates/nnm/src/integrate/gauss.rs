@@ -772,15 +772,20 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
     ) -> Result<(Vec<f64>, Vec<f64>), IntegrationError> {
         let mut z = z0.to_vec();
         let mut middle = Vec::new();
-        let h = duration / steps as f64;
+        let sizes = vec![duration / steps as f64; steps];
         let mut cache = StepCache::default();
-        for k in 0..steps {
-            if 2 * k == steps {
-                middle = z.clone();
-            }
-            self.step(&mut z, h, &mut [], 0, &mut cache, stats)?;
-            stats.steps += 1;
-        }
+        self.march(
+            &mut z,
+            &sizes,
+            (&mut [], 0),
+            &mut cache,
+            stats,
+            |k, state| {
+                if 2 * (k + 1) == steps {
+                    middle = state.to_vec();
+                }
+            },
+        )?;
         Ok((middle, z))
     }
 
@@ -884,20 +889,18 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
             }
         }
         let mut z = z0.to_vec();
-        let mut t = 0.0;
         let mut cache = StepCache {
             record: record.then(Vec::new),
             ..StepCache::default()
         };
-        for &h in &sizes {
-            self.step(&mut z, h, &mut phi, k, &mut cache, &mut stats)
-                .map_err(|e| match e {
-                    IntegrationError::NotFinite { .. } => IntegrationError::NotFinite { t },
-                    other => other,
-                })?;
-            stats.steps += 1;
-            t += h;
-        }
+        self.march(
+            &mut z,
+            &sizes,
+            (&mut phi, k),
+            &mut cache,
+            &mut stats,
+            |_, _| {},
+        )?;
         let flow = Flow {
             z,
             sensitivity: phi,
@@ -906,6 +909,31 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
             stats,
         };
         Ok((flow, cache.record.unwrap_or_default()))
+    }
+
+    /// Takes the steps `sizes` from `z` (in place) with the sensitivities `phi` (`2n × k`),
+    /// one stage factorisation carried from step to step in `cache`; `after(k, z)` sees the
+    /// state after step `k`. A non-finite state is reported at the time its step started.
+    fn march(
+        &self,
+        z: &mut [f64],
+        sizes: &[f64],
+        (phi, k): (&mut [f64], usize),
+        cache: &mut StepCache,
+        stats: &mut IntegrationStats,
+        mut after: impl FnMut(usize, &[f64]),
+    ) -> Result<(), IntegrationError> {
+        let mut t = 0.0;
+        for (index, &h) in sizes.iter().enumerate() {
+            self.step(z, h, phi, k, cache, stats).map_err(|e| match e {
+                IntegrationError::NotFinite { .. } => IntegrationError::NotFinite { t },
+                other => other,
+            })?;
+            stats.steps += 1;
+            t += h;
+            after(index, z);
+        }
+        Ok(())
     }
 }
 
@@ -953,23 +981,21 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
         super::check_request(z0, n2, duration, None)?;
         let mut stats = IntegrationStats::default();
         let mut z = z0.to_vec();
-        let mut cache = StepCache::default();
+        let sizes = division.repeat(samples);
+        let per_sample = division.len().max(1);
         let mut states = Vec::with_capacity(samples);
-        let mut sizes = Vec::with_capacity(samples * division.len());
-        let mut t = 0.0;
-        for _ in 0..samples {
-            for &h in division {
-                self.step(&mut z, h, &mut [], 0, &mut cache, &mut stats)
-                    .map_err(|e| match e {
-                        IntegrationError::NotFinite { .. } => IntegrationError::NotFinite { t },
-                        other => other,
-                    })?;
-                stats.steps += 1;
-                sizes.push(h);
-                t += h;
-            }
-            states.push(z.clone());
-        }
+        self.march(
+            &mut z,
+            &sizes,
+            (&mut [], 0),
+            &mut StepCache::default(),
+            &mut stats,
+            |index, state| {
+                if (index + 1) % per_sample == 0 {
+                    states.push(state.to_vec());
+                }
+            },
+        )?;
         let flow = Flow {
             z,
             sensitivity: Vec::new(),

@@ -41,11 +41,6 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         }
     }
 
-    /// The output dofs whose peak displacements [`Self::motion`] measures.
-    pub fn output_dofs(&self) -> &[usize] {
-        &self.output_dofs
-    }
-
     /// Integrates one period from `z0` in [`MOTION_SAMPLES`] segments and measures the peak
     /// displacements of the output dofs (eq. (87)) and the modal harmonic content (eq. (84)).
     pub fn motion(&mut self, z0: &[f64], period: f64) -> Result<Motion, ShootingError> {
