@@ -9,33 +9,65 @@
 
 use crate::linalg::{self, Mat};
 
+/// An inner product `⟨a, b⟩ = aᵀ G b` given by the products `G a` of a symmetric positive
+/// definite `G` (written into the second argument).
+pub type Metric = std::sync::Arc<dyn Fn(&[f64], &mut [f64]) + Send + Sync>;
+
 /// An orthonormal basis `V` grown by applying `A` to its vectors in turn, and the projected
 /// matrix `H` with `A V_k = V H` (to the directions dropped as negligible): Arnoldi's process,
 /// optionally seeded with several vectors (then `H` is block Hessenberg). Seeding lets the
 /// Floquet analysis hold the trivial directions exactly in the basis.
-#[derive(Debug, Clone)]
+///
+/// Orthonormal in the Euclidean inner product, or in a [`Metric`]'s: then GMRES minimises
+/// the residual in that norm — what matrix-free shooting needs when its coordinates weigh
+/// the state unevenly (docs/method.md eq. (76a)).
+#[derive(Clone)]
 pub struct Arnoldi {
     /// Basis vectors, each of the operator's dimension.
     pub basis: Vec<Vec<f64>>,
-    /// Columns of `H`: column `j` holds `vᵢ · A v_j` for the vectors there were at step `j`,
+    /// `G v` for every basis vector `v` (empty without a metric).
+    metric_basis: Vec<Vec<f64>>,
+    metric: Option<Metric>,
+    /// Columns of `H`: column `j` holds `⟨vᵢ, A v_j⟩` for the vectors there were at step `j`,
     /// and the norm of the new direction (0 when none was added).
     columns: Vec<Vec<f64>>,
     /// Whether every basis vector has been processed and `A V` lies in `span V`.
     pub invariant: bool,
 }
 
+impl std::fmt::Debug for Arnoldi {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Arnoldi")
+            .field("vectors", &self.basis.len())
+            .field("steps", &self.columns.len())
+            .field("metric", &self.metric.is_some())
+            .field("invariant", &self.invariant)
+            .finish()
+    }
+}
+
 impl Arnoldi {
     /// A basis started at `b / ‖b‖`; `None` if `b` is zero or not finite.
     pub fn new(b: &[f64]) -> Option<Self> {
-        let norm = linalg::norm(b);
+        Self::with_metric(b, None)
+    }
+
+    /// A basis started at `b / ‖b‖_G`, orthonormal in `metric`'s inner product (Euclidean
+    /// when `None`); `None` if `b` is zero or not finite.
+    pub fn with_metric(b: &[f64], metric: Option<Metric>) -> Option<Self> {
+        let mut arnoldi = Self {
+            basis: Vec::new(),
+            metric_basis: Vec::new(),
+            metric,
+            columns: Vec::new(),
+            invariant: false,
+        };
+        let (norm, gb) = arnoldi.norm(b);
         if !(norm > 0.0 && norm.is_finite()) {
             return None;
         }
-        Some(Self {
-            basis: vec![b.iter().map(|v| v / norm).collect()],
-            columns: Vec::new(),
-            invariant: false,
-        })
+        arnoldi.push(b, norm, gb);
+        Some(arnoldi)
     }
 
     /// A basis seeded with `vectors`, orthonormalised in order (one that depends on the
@@ -44,14 +76,43 @@ impl Arnoldi {
         let mut arnoldi = Self::new(vectors.first()?)?;
         for v in &vectors[1..] {
             let mut w = v.to_vec();
-            let size = linalg::norm(&w);
+            let size = arnoldi.norm(&w).0;
             arnoldi.orthogonalise(&mut w);
-            let norm = linalg::norm(&w);
+            let (norm, gw) = arnoldi.norm(&w);
             if norm > 1e-12 * size {
-                arnoldi.basis.push(w.iter().map(|x| x / norm).collect());
+                arnoldi.push(&w, norm, gw);
             }
         }
         Some(arnoldi)
+    }
+
+    /// `‖w‖` in the basis' inner product, with `G w` (empty without a metric).
+    fn norm(&self, w: &[f64]) -> (f64, Vec<f64>) {
+        match &self.metric {
+            None => (linalg::norm(w), Vec::new()),
+            Some(metric) => {
+                let mut gw = vec![0.0; w.len()];
+                metric(w, &mut gw);
+                (linalg::dot(w, &gw).max(0.0).sqrt(), gw)
+            }
+        }
+    }
+
+    /// Appends `w / norm` to the basis (`gw = G w`, when there is a metric).
+    fn push(&mut self, w: &[f64], norm: f64, gw: Vec<f64>) {
+        self.basis.push(w.iter().map(|v| v / norm).collect());
+        if self.metric.is_some() {
+            self.metric_basis
+                .push(gw.iter().map(|v| v / norm).collect());
+        }
+    }
+
+    /// `⟨vᵢ, w⟩`.
+    fn inner(&self, i: usize, w: &[f64]) -> f64 {
+        match self.metric {
+            None => linalg::dot(&self.basis[i], w),
+            Some(_) => linalg::dot(&self.metric_basis[i], w),
+        }
     }
 
     /// Removes from `w` its components along the basis, by modified Gram–Schmidt twice (the
@@ -61,7 +122,7 @@ impl Arnoldi {
         let mut h = vec![0.0; self.basis.len()];
         for _ in 0..2 {
             for (i, v) in self.basis.iter().enumerate() {
-                let c = linalg::dot(v, w);
+                let c = self.inner(i, w);
                 h[i] += c;
                 w.iter_mut().zip(v).for_each(|(w, v)| *w -= c * v);
             }
@@ -88,14 +149,14 @@ impl Arnoldi {
         let next = &self.basis[self.columns.len()];
         let mut w = vec![0.0; next.len()];
         apply(next, &mut w);
-        let size = linalg::norm(&w);
+        let size = self.norm(&w).0;
         let mut h = self.orthogonalise(&mut w);
-        let norm = linalg::norm(&w);
+        let (norm, gw) = self.norm(&w);
         let added = norm > breakdown * size && norm > floor && norm.is_finite();
         h.push(if added { norm } else { 0.0 });
         self.columns.push(h);
         if added {
-            self.basis.push(w.iter().map(|v| v / norm).collect());
+            self.push(&w, norm, gw);
         }
         self.invariant = self.columns.len() == self.basis.len();
         if added { norm } else { 0.0 }
@@ -108,12 +169,9 @@ impl Arnoldi {
         Mat::from_fn(k, k, |i, j| self.columns[j].get(i).copied().unwrap_or(0.0))
     }
 
-    /// Coordinates of `x` in the first `k` basis vectors, `V_kᵀ x`.
+    /// Coordinates of `x` in the first `k` basis vectors, `⟨v_i, x⟩`.
     pub fn coordinates(&self, x: &[f64]) -> Vec<f64> {
-        self.basis[..self.steps()]
-            .iter()
-            .map(|v| linalg::dot(v, x))
-            .collect()
+        (0..self.steps()).map(|i| self.inner(i, x)).collect()
     }
 }
 
@@ -136,15 +194,16 @@ pub fn gmres(
     b: &[f64],
     tolerance: f64,
     max_iterations: usize,
+    metric: Option<Metric>,
 ) -> GmresSolution {
-    let Some(mut arnoldi) = Arnoldi::new(b) else {
+    let Some(mut arnoldi) = Arnoldi::with_metric(b, metric) else {
         return GmresSolution {
             x: vec![0.0; b.len()],
             iterations: 0,
             relative_residual: 0.0,
         };
     };
-    let beta = linalg::norm(b);
+    let beta = arnoldi.norm(b).0;
     // The rotated Hessenberg R, the rotations, and the rotated right-hand side β e₁.
     let mut r: Vec<Vec<f64>> = Vec::new();
     let mut rotations: Vec<(f64, f64)> = Vec::new();
@@ -233,7 +292,7 @@ mod tests {
         let n = 40;
         let a = operator(n);
         let b: Vec<f64> = (0..n).map(|i| 1.0 + (i % 3) as f64).collect();
-        let solution = gmres(apply(&a), &b, 1e-12, n);
+        let solution = gmres(apply(&a), &b, 1e-12, n, None);
         assert!(solution.relative_residual <= 1e-12);
         let exact = linalg::least_squares(a.as_ref(), &b);
         for (x, e) in solution.x.iter().zip(&exact) {
@@ -271,7 +330,7 @@ mod tests {
             }
         };
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sqrt()).collect();
-        let solution = gmres(product, &b, 1e-12, n);
+        let solution = gmres(product, &b, 1e-12, n, None);
         assert!(solution.iterations <= rank + 1, "{}", solution.iterations);
         assert!(solution.relative_residual <= 1e-12);
     }

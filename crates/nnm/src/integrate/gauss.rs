@@ -419,13 +419,17 @@ impl StageTangents {
                 }
             }
             StageTangents::Sparse(pattern, values) => {
+                // Rows that cancel summed in twice the precision, as the internal force's
+                // are (eq. (76c)): the monodromy–vector products then carry the slow modes'
+                // part of a smooth direction without the rows' cancellation noise.
                 for (r, o) in out.iter_mut().enumerate() {
                     let span = pattern.row_start[r]..pattern.row_start[r + 1];
-                    *o = pattern.col[span.clone()]
-                        .iter()
-                        .zip(&values[i][span])
-                        .map(|(&c, v)| v * d[c])
-                        .sum();
+                    *o = linalg::sparse_row_dot(
+                        0.0,
+                        &pattern.col[span.clone()],
+                        &values[i][span],
+                        d,
+                    );
                 }
             }
         }
@@ -457,21 +461,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             .map(|j| (0..s).map(|l| method.b[l] * a(l, j)).sum())
             .collect();
         let n = system.dofs();
-        // M's entries: held sparse by the mass operator, or its diagonal, or (a mass given
-        // only as an operator) its n products with the identity.
-        let operator = system.mass();
-        let mass = if let Some(sparse) = operator.sparse() {
-            sparse.clone()
-        } else if let Some(diagonal) = operator.diagonal() {
-            let entries: Vec<_> = diagonal
-                .iter()
-                .enumerate()
-                .map(|(i, &m)| (i, i, m))
-                .collect();
-            SparseMatrix::from_triplets(n, &entries).expect("diagonal entries are in range")
-        } else {
-            SparseMatrix::from_dense(&crate::modes::dense_mass(system))
-        };
+        let mass = crate::model::mass_entries(system.mass());
         let sparse = system
             .tangent_pattern()
             .and_then(|pattern| SparseStages::new(pattern, &mass, method.c.len()));

@@ -4,6 +4,37 @@
 use super::{Matrix, SparseMatrix};
 use crate::linalg::{self, Mat, SparseCholesky};
 
+/// `M`'s entries as a sparse matrix, whatever form the operator holds them in: its sparse
+/// entries, its diagonal, or (a mass given only by products) its `n` products with the
+/// identity. What the implicit integrator assembles its stage systems from, and the metric of
+/// matrix-free shooting.
+pub fn mass_entries(mass: &dyn MassOperator) -> SparseMatrix {
+    let n = mass.dimension();
+    if let Some(sparse) = mass.sparse() {
+        return sparse.clone();
+    }
+    if let Some(diagonal) = mass.diagonal() {
+        let entries: Vec<_> = diagonal
+            .iter()
+            .enumerate()
+            .map(|(i, &m)| (i, i, m))
+            .collect();
+        return SparseMatrix::from_triplets(n, &entries).expect("diagonal entries are in range");
+    }
+    let mut dense = Mat::<f64>::zeros(n, n);
+    let mut unit = vec![0.0; n];
+    let mut column = vec![0.0; n];
+    for c in 0..n {
+        unit[c] = 1.0;
+        mass.apply(&unit, 1, &mut column);
+        unit[c] = 0.0;
+        for (r, &v) in column.iter().enumerate() {
+            dense[(r, c)] = v;
+        }
+    }
+    SparseMatrix::from_dense(&dense)
+}
+
 /// What the integrators need of the mass matrix `M` (symmetric positive definite).
 ///
 /// Implement it for a mass held in your own storage; [`Mass`] covers diagonal (lumped) and

@@ -49,6 +49,16 @@ impl SparsityPattern {
 }
 
 impl SparseMatrix {
+    /// `out[i] += (A x)_i` for one column, a row whose terms cancel redone in twice the
+    /// working precision ([`linalg::sparse_row_dot`]).
+    pub(crate) fn apply_add_accurate(&self, x: &[f64], out: &mut [f64]) {
+        let p = &self.pattern;
+        for (o, bounds) in out.iter_mut().zip(p.row_start.windows(2)) {
+            let span = bounds[0]..bounds[1];
+            *o = linalg::sparse_row_dot(*o, &p.col[span.clone()], &self.values[span], x);
+        }
+    }
+
     /// Builds an `n × n` matrix from `(row, column, value)` triplets (0-based); duplicates are
     /// summed, as finite-element assembly expects. Entries out of range are an error.
     pub fn from_triplets(n: usize, triplets: &[(usize, usize, f64)]) -> Result<Self, String> {
@@ -323,6 +333,34 @@ impl Matrix {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Rows whose terms cancel: plain summation loses the small ones entirely, the accurate
+    /// product gets the exact results (representable here, so exactly equal).
+    #[test]
+    fn accurate_product_keeps_what_cancellation_loses() {
+        let big = 1e16;
+        let a =
+            SparseMatrix::from_triplets(2, &[(0, 0, big), (0, 1, 1.0), (1, 0, -big), (1, 1, 0.75)])
+                .unwrap();
+        // Row 0: 1e16·1 + 1·1 − … ; x chosen so that row sums cancel to small integers.
+        let x = [1.0, 1.0];
+        let mut plain = [-big, big];
+        a.apply_add(1.0, &x, 2, 1, &mut plain, 2);
+        let mut accurate = [-big, big];
+        a.apply_add_accurate(&x, &mut accurate);
+        assert_eq!(accurate, [1.0, 0.75]);
+        assert_ne!(
+            plain, accurate,
+            "plain summation should lose the small terms here"
+        );
+        // A product error: 0.1 · 3 is not representable; its rounding error is kept.
+        let b = SparseMatrix::from_triplets(1, &[(0, 0, 0.1)]).unwrap();
+        let mut out = [-0.30000000000000004];
+        b.apply_add_accurate(&[3.0], &mut out);
+        let exact_error = 0.1f64.mul_add(3.0, -0.30000000000000004);
+        assert_eq!(out[0], exact_error);
+        assert!(out[0] != 0.0);
+    }
 
     #[test]
     fn triplets_sum_duplicates_and_match_dense_product() {

@@ -28,9 +28,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::{Evaluation, Shooting, ShootingError};
 use crate::integrate::{LinearizedFlow, Steps};
-use crate::krylov::{Arnoldi, gmres};
-use crate::linalg::{self, Mat};
-use crate::model::{Block, BlockMut, MechanicalSystem};
+use crate::krylov::{Arnoldi, Metric, gmres};
+use crate::linalg::{self, Mat, SparseCholesky};
+use crate::model::{Block, BlockMut, MechanicalSystem, SparseMatrix, mass_entries};
 
 /// Relative residual GMRES solves each Newton correction to: well below the shooting
 /// tolerance, so that Newton's convergence is that of the exact Jacobian.
@@ -49,16 +49,15 @@ const ARNOLDI_INVARIANT: f64 = 1e-10;
 /// `u_y = y / A`.
 ///
 /// Why these weights: each dof's displacement and velocity then count by the energy they
-/// carry on their own, whatever their units (a beam's translations and rotations), in O(n),
-/// where exact energy coordinates would need factors of `K` and `M`. The products' GMRES
-/// convergence does not depend on them (it is set by the rank of the undamped part); the
-/// residual's meaning and the arclength's scaling do. Measured limit: on the ECL beam they
-/// serve to 400 elements; at 1,000 the diagonal energy `Σ K_ii x_i²` of a smooth field exceeds
-/// `xᵀ K x` by ~10¹⁴, the operator is that ill-conditioned and Newton diverges — exact energy
-/// coordinates (Cholesky factors of `K` and `M`) are the way on. Mass weights at `ω_ref`
-/// (`ω_ref √M_ii`, `√M_ii`) were worse: stiff velocity noise entered the residual and a
-/// 100-element branch took 276 Newton iterations instead of 79.
-#[derive(Debug)]
+/// carry on their own, whatever their units (a beam's translations and rotations), in O(n).
+/// The products' GMRES convergence does not depend on them (it is set by the rank of the
+/// undamped part); the arclength's scaling does. They are not what residuals are measured
+/// in: on a fine mesh the diagonal energy `Σ K_ii x_i²` of a smooth field exceeds `xᵀ K x`
+/// by ~10¹⁴ (1,000 elements), so the GMRES minimisation, the convergence test and the
+/// bordering direction use the energy metric instead ([`EnergyMetric`], eqs. (76a), (76b)).
+/// Mass weights at `ω_ref` (`ω_ref √M_ii`, `√M_ii`) as coordinates were tried and were worse:
+/// stiff displacements counted for nothing, Newton let them grow, and the step-count
+/// estimate then asked for five times the steps (100 elements: 25.8 s against 8.7 s).
 pub(super) struct MatrixFree {
     weights: Arc<Vec<f64>>,
     unit: f64,
@@ -69,6 +68,18 @@ pub(super) struct MatrixFree {
     section: Option<Vec<f64>>,
     /// Operator products made by GMRES and Arnoldi, shared with every evaluation's operator.
     pub(super) products: Arc<AtomicUsize>,
+    /// The energy inner product in `u` coordinates (eq. (76a)), when `K` is held sparse.
+    energy: Option<Arc<EnergyMetric>>,
+}
+
+impl std::fmt::Debug for MatrixFree {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MatrixFree")
+            .field("dimension", &self.weights.len())
+            .field("unit", &self.unit)
+            .field("energy_metric", &self.energy.is_some())
+            .finish()
+    }
 }
 
 impl MatrixFree {
@@ -78,6 +89,7 @@ impl MatrixFree {
         system: &S,
         unit: f64,
         start: &[f64],
+        omega_ref: f64,
     ) -> Result<Self, String> {
         let n = system.dofs();
         let stiffness = diagonal_of_tangent(system);
@@ -105,11 +117,40 @@ impl MatrixFree {
             row.iter_mut().for_each(|r| *r /= norm);
             row
         });
+        let weights = Arc::new(weights);
+        let energy = EnergyMetric::new(system, &weights, omega_ref, start).map(Arc::new);
         Ok(Self {
-            weights: Arc::new(weights),
+            weights,
             unit,
             section,
             products: Arc::new(AtomicUsize::new(0)),
+            energy,
+        })
+    }
+
+    /// The norm of a state in `u` coordinates: in the energy metric when there is one (eq.
+    /// (76a)), Euclidean otherwise — the convergence test's (eq. (19)). Why not the Euclidean
+    /// norm of the Jacobi coordinates: there the energy-gradient direction is short (a smooth
+    /// field's `K x / √K_ii` is `ω/ω_max` of its `√K_ii x`), so a mismatch of energy that no
+    /// correction can remove (round-off, the damping of the unresolved modes) counts
+    /// `ω_max/ω` times its size: on the 1,000-element beam a relative mismatch of 10⁻¹⁴ read
+    /// as a residual of 10⁻⁸ and every point after the first stalled.
+    pub(super) fn norm(&self, y: &[f64]) -> f64 {
+        match &self.energy {
+            None => linalg::norm(y),
+            Some(energy) => {
+                let mut gy = vec![0.0; y.len()];
+                energy.apply(y, &mut gy);
+                linalg::dot(y, &gy).max(0.0).sqrt()
+            }
+        }
+    }
+
+    /// The energy metric as GMRES takes it.
+    fn metric(&self) -> Option<Metric> {
+        self.energy.clone().map(|energy| {
+            let metric: Metric = Arc::new(move |u: &[f64], out: &mut [f64]| energy.apply(u, out));
+            metric
         })
     }
 
@@ -134,6 +175,111 @@ impl MatrixFree {
         y.iter()
             .zip(self.weights.iter())
             .map(|(y, w)| self.unit * y / w)
+            .collect()
+    }
+}
+
+/// The energy inner product of states in `u` coordinates (eq. (76a)):
+/// `⟨a, b⟩ = c (W⁻¹a)ᵀ diag(K_σ, M) (W⁻¹b)`, `K_σ = K₀ + σ M`, `σ = (ω_ref/10)²` (a floor
+/// for rigid-body motion, 1% at the starting mode), on the `2n` state components and the
+/// Euclidean one on the bordered system's two scalars; `c` makes the starting state's norm
+/// its Euclidean one, so that the scalars keep their weight.
+///
+/// Why: in the Jacobi coordinates (73) a smooth displacement field counts by its diagonal
+/// energy, `(ω_max/ω)²` times its strain energy — 10¹⁴ on a 1,000-element beam — and its
+/// velocity hardly at all; a Newton correction minimised in that norm leaves the velocities
+/// (which move the displacements a half period on by that same factor) to round-off, and
+/// Newton diverged. In the energy norm displacements and velocities, smooth and stiff, count
+/// by the energy they carry.
+struct EnergyMetric {
+    n: usize,
+    /// `K_σ`, with its sparse Cholesky factor.
+    stiffness: SparseMatrix,
+    factor: SparseCholesky,
+    mass: SparseMatrix,
+    weights: Arc<Vec<f64>>,
+    scale: f64,
+}
+
+impl EnergyMetric {
+    /// The metric of `system` (`None` when `K` is not held sparse or `K_σ` is not positive
+    /// definite: then the Jacobi coordinates' Euclidean norm serves).
+    fn new<S: MechanicalSystem + ?Sized>(
+        system: &S,
+        weights: &Arc<Vec<f64>>,
+        omega_ref: f64,
+        start: &[f64],
+    ) -> Option<Self> {
+        let n = system.dofs();
+        let pattern = system.tangent_pattern()?;
+        let mut values = vec![0.0; pattern.nonzeros()];
+        system.tangent_values(&vec![0.0; n], &mut values);
+        let mass = mass_entries(system.mass());
+        let sigma = 0.01 * omega_ref * omega_ref;
+        let mut triplets = Vec::with_capacity(values.len() + mass.values().len());
+        for (pattern, values, factor) in [
+            (pattern, &values[..], 1.0),
+            (mass.pattern(), mass.values(), sigma),
+        ] {
+            for r in 0..n {
+                let span = pattern.row_start[r]..pattern.row_start[r + 1];
+                for (&c, &v) in pattern.col[span.clone()].iter().zip(&values[span]) {
+                    triplets.push((r, c, factor * v));
+                }
+            }
+        }
+        let stiffness = SparseMatrix::from_triplets(n, &triplets).ok()?;
+        let factor = SparseCholesky::new(
+            n,
+            &stiffness.pattern().row_start,
+            &stiffness.pattern().col,
+            stiffness.values(),
+        )?;
+        let mut metric = Self {
+            n,
+            stiffness,
+            factor,
+            mass,
+            weights: weights.clone(),
+            scale: 1.0,
+        };
+        // c = ‖y‖² / (yᵀ G y) at the start, y = W z_start.
+        let y: Vec<f64> = start
+            .iter()
+            .zip(weights.iter())
+            .map(|(z, w)| z * w)
+            .collect();
+        let mut gy = vec![0.0; 2 * n];
+        metric.apply(&y, &mut gy);
+        metric.scale = linalg::dot(&y, &y) / linalg::dot(&y, &gy);
+        (metric.scale > 0.0 && metric.scale.is_finite()).then_some(metric)
+    }
+
+    /// `out = G u` (both of length `2n`, or `2n + 2` with the scalars).
+    fn apply(&self, u: &[f64], out: &mut [f64]) {
+        let n = self.n;
+        let z: Vec<f64> = (0..2 * n).map(|i| u[i] / self.weights[i]).collect();
+        let (gx, gv) = out[..2 * n].split_at_mut(n);
+        gx.fill(0.0);
+        gv.fill(0.0);
+        self.stiffness.apply_add(1.0, &z[..n], n, 1, gx, n);
+        self.mass.apply_add(1.0, &z[n..], n, 1, gv, n);
+        out[..2 * n]
+            .iter_mut()
+            .zip(self.weights.iter())
+            .for_each(|(o, w)| *o *= self.scale / w);
+        out[2 * n..].copy_from_slice(&u[2 * n..]);
+    }
+
+    /// `G⁻¹ W⁻¹ ∇E` for a physical gradient `∇E = (f_int(x0), M v0)`: the direction of an
+    /// energy mismatch in this metric, `W (K_σ⁻¹ f_int(x0), v0)` up to a factor.
+    fn gradient_direction(&self, force: &[f64], velocity: &[f64]) -> Vec<f64> {
+        let mut x = force.to_vec();
+        self.factor.solve_in_place(&mut x, 1);
+        x.iter()
+            .chain(velocity)
+            .zip(self.weights.iter())
+            .map(|(z, w)| z * w)
             .collect()
     }
 }
@@ -204,6 +350,7 @@ pub struct MatrixFreeJacobian {
     /// `ℓ = W⁻¹ ∇E(z0)`, normalised: the periodicity rows' left null vector (eq. (74)).
     null_column: Vec<f64>,
     products: Arc<AtomicUsize>,
+    metric: Option<Metric>,
 }
 
 impl std::fmt::Debug for MatrixFreeJacobian {
@@ -246,7 +393,7 @@ impl MatrixFreeJacobian {
         let mut b = Vec::with_capacity(size);
         b.extend_from_slice(rhs);
         b.push(border_rhs);
-        let solution = gmres(apply, &b, GMRES_TOLERANCE, MAX_GMRES);
+        let solution = gmres(apply, &b, GMRES_TOLERANCE, MAX_GMRES, self.metric.clone());
         let mut x = solution.x;
         x.truncate(n2 + 1);
         x
@@ -290,7 +437,7 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         let free = self.matrix_free.as_ref().expect("matrix-free formulation");
         let h: Vec<f64> = (0..n2).map(|i| flow.z[i] + sign * z0[i]).collect();
         let mut rows = free.unknowns(&h);
-        let relative_residual = linalg::norm(&rows) / linalg::norm(&u[..n2]).max(f64::MIN_POSITIVE);
+        let relative_residual = free.norm(&rows) / free.norm(&u[..n2]).max(f64::MIN_POSITIVE);
         // ∂H/∂τ = (horizon/τ) g(z(horizon)).
         let mut g_end = vec![0.0; n2];
         self.integrator.field(&flow.z, &mut g_end);
@@ -322,6 +469,7 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             phase_row,
             null_column,
             products: free.products.clone(),
+            metric: free.metric(),
         };
         self.stats.krylov_products = free.products.load(Ordering::Relaxed);
         self.finish_evaluation(relative_residual, period);
@@ -338,21 +486,35 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         })
     }
 
-    /// `W⁻¹ ∇E(z0)` normalised, `∇E = (f_int(x0), M v0)`: the left null vector of the
-    /// periodicity rows in `W H / A` coordinates (eq. (74)).
+    /// The direction `ℓ` of the bordered system (74): the periodicity rows' left null vector
+    /// `W⁻¹ ∇E(z0)`, `∇E = (f_int(x0), M v0)`, in the Euclidean inner product of `u`; in the
+    /// energy metric, the vector it stands for, `G⁻¹ W⁻¹ ∇E` (eq. (76b)). Normalised.
+    ///
+    /// Why it matters: a non-conservative integrator (Radau IIA) does not keep the energy
+    /// exactly, so no correction removes the residual's part along the energy gradient, and
+    /// at the solution of (74) the residual left is `λ ℓ`. With the Euclidean `ℓ` (rough, on a
+    /// fine mesh: `K x0 / √K_ii`) that left 3% of the orbit's energy norm on the 1,000-element
+    /// beam; with the metric's, it is the least residual in that norm (for a linear system
+    /// `G⁻¹ W⁻¹ ∇E` is the state itself: an energy mismatch is one of amplitude).
     fn energy_gradient_direction(&self, z0: &[f64]) -> Vec<f64> {
         let n = self.n;
         let free = self.matrix_free.as_ref().expect("matrix-free formulation");
         let mut gradient = vec![0.0; 2 * n];
         self.system.internal_force(&z0[..n], &mut gradient[..n]);
-        self.system.mass().apply(&z0[n..], 1, &mut gradient[n..]);
-        gradient
-            .iter_mut()
-            .zip(free.weights.iter())
-            .for_each(|(g, w)| *g /= w);
-        let norm = linalg::norm(&gradient).max(f64::MIN_POSITIVE);
-        gradient.iter_mut().for_each(|g| *g /= norm);
-        gradient
+        let mut direction = match &free.energy {
+            Some(energy) => energy.gradient_direction(&gradient[..n], &z0[n..]),
+            None => {
+                self.system.mass().apply(&z0[n..], 1, &mut gradient[n..]);
+                gradient
+                    .iter()
+                    .zip(free.weights.iter())
+                    .map(|(g, w)| g / w)
+                    .collect()
+            }
+        };
+        let norm = linalg::norm(&direction).max(f64::MIN_POSITIVE);
+        direction.iter_mut().for_each(|g| *g /= norm);
+        direction
     }
 
     /// The Floquet problem of a converged matrix-free point: the Hessenberg matrix of an

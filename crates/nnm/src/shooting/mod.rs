@@ -361,6 +361,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
                 system,
                 amplitude_scale * omega_ref,
                 &phase_reference,
+                omega_ref,
             ) {
                 Ok(free) => (Some(free), unsupported),
                 Err(why) => (None, Some(why)),

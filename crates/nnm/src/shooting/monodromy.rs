@@ -103,16 +103,17 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             .zip(&evaluation.z0)
             .map(|(a, b)| a - b)
             .collect();
-        Ok(linalg::norm(&self.residual_coordinates(&mismatch))
-            / linalg::norm(&self.residual_coordinates(&evaluation.z0)).max(f64::MIN_POSITIVE))
+        Ok(self.residual_norm(&mismatch)
+            / self.residual_norm(&evaluation.z0).max(f64::MIN_POSITIVE))
     }
 
-    /// The coordinates the convergence test measures a state in: [`Self::weighted_modal`],
-    /// or `W z` in the matrix-free formulation (docs/method.md eq. (73)).
-    fn residual_coordinates(&self, z: &[f64]) -> Vec<f64> {
+    /// The norm the convergence test measures a state in: of [`Self::weighted_modal`], or in
+    /// the matrix-free formulation that of `W z` in its metric (docs/method.md eqs. (73),
+    /// (76a)).
+    fn residual_norm(&self, z: &[f64]) -> f64 {
         match &self.matrix_free {
-            Some(free) => free.weigh(z),
-            None => self.weighted_modal(z),
+            Some(free) => free.norm(&free.weigh(z)),
+            None => linalg::norm(&self.weighted_modal(z)),
         }
     }
 

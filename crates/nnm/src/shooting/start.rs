@@ -4,7 +4,7 @@
 
 use super::{PhaseCondition, ShiftSymmetry, Shooting, ShootingSetup, Travel};
 use crate::linalg;
-use crate::model::{Block, BlockMut, MechanicalSystem};
+use crate::model::MechanicalSystem;
 use crate::modes::{LinearMode, ModesError, StandingWave, linear_modes};
 use crate::settings::Settings;
 use crate::symmetry::{Parity, invariant_class, is_odd, sample_states};
@@ -452,6 +452,12 @@ fn rigid_modes_decouple<S: MechanicalSystem + ?Sized>(
 /// scanning `log c` upwards in half decades from 1e-12, then bisected. (The first crossing,
 /// not any: a non-polynomial force such as the pendulum's `sin θ - θ` oscillates about the
 /// ratio far away.)
+///
+/// The linear part `K x` is the internal force itself at `2⁻⁶⁰ x`, scaled back: exact
+/// scalings by a power of two, so that the same arithmetic makes both and `f_nl` is read
+/// without their round-off. (Formed apart, by the tangent applied to `φ` and times `c`, the
+/// two differ by `ε ‖K‖ ‖x‖`, which on a 1,000-element beam, `‖K‖/‖K φ‖ ≈ 10¹⁴`, passes the
+/// ratio at every amplitude: the branch started twelve decades too low.)
 // Negated comparisons are deliberate: a NaN ratio must count as "not above".
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn weakly_nonlinear_amplitude<S: MechanicalSystem + ?Sized>(
@@ -460,20 +466,21 @@ fn weakly_nonlinear_amplitude<S: MechanicalSystem + ?Sized>(
     ratio: f64,
 ) -> f64 {
     let n = shape.len();
-    let zero = vec![0.0; n];
-    let mut k_phi = vec![0.0; n];
-    system.tangent_stiffness(
-        &zero,
-        Block::new(shape, n, 1, n),
-        BlockMut::new(&mut k_phi, n, 1, n),
-    );
-    let k_norm = linalg::norm(&k_phi);
+    const TINY: f64 = 1.0 / (1u64 << 60) as f64;
+    let linear_force = |x: &[f64]| {
+        let small: Vec<f64> = x.iter().map(|v| v * TINY).collect();
+        let mut f = vec![0.0; n];
+        system.internal_force(&small, &mut f);
+        f.iter_mut().for_each(|v| *v /= TINY);
+        f
+    };
+    let k_norm = linalg::norm(&linear_force(shape));
     let above = |log_c: f64| {
         let c = 10f64.powf(log_c);
         let x: Vec<f64> = shape.iter().map(|s| c * s).collect();
         let mut f = vec![0.0; n];
         system.internal_force(&x, &mut f);
-        let nonlinear: Vec<f64> = f.iter().zip(&k_phi).map(|(f, k)| f - c * k).collect();
+        let nonlinear: Vec<f64> = f.iter().zip(linear_force(&x)).map(|(f, k)| f - k).collect();
         linalg::norm(&nonlinear) / (c * k_norm) > ratio
     };
     const LOWEST: f64 = -12.0;
