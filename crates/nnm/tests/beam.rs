@@ -6,10 +6,20 @@ use std::ops::ControlFlow;
 use nnm::integrate::IntegrationMethod;
 use nnm::model::CantileverBeam;
 use nnm::prelude::*;
+use nnm::shooting::Formulation;
 
 /// The first `points` points of the first NNM of the ECL beam with `elements` elements, by
-/// `method`, events off.
+/// `method`, events off, in the automatic formulation.
 fn branch(elements: usize, method: IntegrationMethod, points: usize) -> Branch {
+    branch_in(elements, method, points, Formulation::Auto)
+}
+
+fn branch_in(
+    elements: usize,
+    method: IntegrationMethod,
+    points: usize,
+    formulation: Formulation,
+) -> Branch {
     let beam = CantileverBeam {
         elements,
         ..CantileverBeam::default()
@@ -21,11 +31,14 @@ fn branch(elements: usize, method: IntegrationMethod, points: usize) -> Branch {
     settings.limits.max_points = points;
     settings.stability.events = false;
     settings.integration.integrator = method;
+    settings.shooting.formulation = formulation;
     continue_branch(&beam, &start, &settings, |_| ControlFlow::Continue(())).unwrap()
 }
 
+/// The same in the dense formulation, whatever the integrator (the points of two
+/// formulations are not the same points: their unknowns, and so their arclengths, differ).
 fn first_points(method: IntegrationMethod, points: usize) -> Vec<(f64, f64)> {
-    branch(19, method, points)
+    branch_in(19, method, points, Formulation::Dense)
         .points
         .iter()
         .map(|p| (p.energy, p.frequency))

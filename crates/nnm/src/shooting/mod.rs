@@ -68,11 +68,13 @@ pub enum JacobianMethod {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Formulation {
-    /// Matrix-free when the modal basis is incomplete (a large model's lowest modes only),
-    /// dense otherwise. Why not by size: on the ECL beam (Radau5, +20%) matrix-free is 2×
-    /// faster at 200 dofs (11.8 s against 24.1 s) but crawls at 400 (tiny steps near its
-    /// residual's noise floor, where dense takes 109 s), so the choice is left to the user
-    /// between those sizes (docs/method.md §15).
+    /// Matrix-free when the modal basis is incomplete (a large model's lowest modes only), or
+    /// when the model is stiff enough for the damping collocation (Radau IIA, chosen
+    /// automatically above 64 dofs) and holds its tangent sparse — unless the motion is a
+    /// travelling wave (shot over a sector shift, dense only); dense otherwise. Measured on
+    /// the ECL beam to +20% (`nnm bench --stiff`): matrix-free 3.1 s against 4.9 s at 100
+    /// dofs, 7.2 s against 15.0 s at 200; 28 s against 109 s at 400 dofs (docs/method.md
+    /// §15).
     #[default]
     Auto,
     /// Unknowns in the elastic modal basis, the Jacobian and monodromy as dense matrices from
@@ -347,7 +349,13 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         let method = settings.integration.integrator.resolve(system, omega_ref);
         let (matrix_free, unsupported) = match settings.shooting.formulation {
             Formulation::MatrixFree => (true, None),
-            Formulation::Auto => (!complete_basis, None),
+            Formulation::Auto => (
+                !complete_basis
+                    || (method == IntegrationMethod::Radau5
+                        && system.tangent_pattern().is_some()
+                        && shift.as_ref().is_none_or(|s| s.is_half_wave())),
+                None,
+            ),
             Formulation::Dense if !complete_basis => (
                 false,
                 Some(format!(
