@@ -215,15 +215,14 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
             s
         };
         // Dense and matrix-free formulations (docs/method.md §15) side by side on the same
-        // damping integrator. (At 200 elements matrix-free crawls near its residual's noise
-        // floor: not a benchmark yet.)
+        // damping integrator.
         let formulation = |f: Formulation| {
             let mut s = beam_settings(0.2);
             s.integration.integrator = IntegrationMethod::Radau5;
             s.shooting.formulation = f;
             s
         };
-        for elements in [19, 50, 100] {
+        for elements in [19, 50, 100, 200] {
             let beam = CantileverBeam {
                 elements,
                 ..CantileverBeam::default()
@@ -232,7 +231,8 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
             eprintln!("bench: beam of {elements} elements");
             let case = format!("beam {elements} el. ({} dofs) to +20%", 2 * elements);
             let variants = match elements {
-                19 => vec![("auto", beam_settings(0.2))],
+                // 19 elements: Gauss6, dense; 200: Radau5, matrix-free (dense takes ~110 s).
+                19 | 200 => vec![("auto", beam_settings(0.2))],
                 _ => vec![
                     ("dense", formulation(Formulation::Dense)),
                     ("matrix-free", formulation(Formulation::MatrixFree)),

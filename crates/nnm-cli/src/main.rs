@@ -75,8 +75,8 @@ enum Command {
         /// Repetitions of the single-evaluation case.
         #[arg(long, default_value_t = 5)]
         repeat: usize,
-        /// Also the stiff finite-element cases (cantilever beams of 19, 50 and 100 elements,
-        /// the von Kármán beam; about a minute).
+        /// Also the stiff finite-element cases (cantilever beams of 19, 50, 100 and 200 elements,
+        /// the von Kármán beam; about two minutes).
         #[arg(long)]
         stiff: bool,
     },
