@@ -148,13 +148,7 @@ pub fn linearised_matrices<S: MechanicalSystem + ?Sized>(system: &S) -> (Mat<f64
 
 /// The dense mass matrix of a system, from its operator (`n` products).
 pub fn dense_mass<S: MechanicalSystem + ?Sized>(system: &S) -> Mat<f64> {
-    let n = system.dofs();
-    let eye: Vec<f64> = (0..n * n)
-        .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
-        .collect();
-    let mut m = vec![0.0; n * n];
-    system.mass().apply(&eye, n, &mut m);
-    Mat::from_fn(n, n, |i, j| m[j * n + i])
+    crate::model::dense_mass_matrix(system.mass())
 }
 
 /// All linear modes of `system` (its linearisation at rest), in ascending frequency; for a

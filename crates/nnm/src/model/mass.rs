@@ -21,18 +21,18 @@ pub fn mass_entries(mass: &dyn MassOperator) -> SparseMatrix {
             .collect();
         return SparseMatrix::from_triplets(n, &entries).expect("diagonal entries are in range");
     }
-    let mut dense = Mat::<f64>::zeros(n, n);
-    let mut unit = vec![0.0; n];
-    let mut column = vec![0.0; n];
-    for c in 0..n {
-        unit[c] = 1.0;
-        mass.apply(&unit, 1, &mut column);
-        unit[c] = 0.0;
-        for (r, &v) in column.iter().enumerate() {
-            dense[(r, c)] = v;
-        }
-    }
-    SparseMatrix::from_dense(&dense)
+    SparseMatrix::from_dense(&dense_mass_matrix(mass))
+}
+
+/// `M` as a dense matrix, from the operator's `n` products with the identity.
+pub fn dense_mass_matrix(mass: &dyn MassOperator) -> Mat<f64> {
+    let n = mass.dimension();
+    let eye: Vec<f64> = (0..n * n)
+        .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
+        .collect();
+    let mut m = vec![0.0; n * n];
+    mass.apply(&eye, n, &mut m);
+    Mat::from_fn(n, n, |i, j| m[j * n + i])
 }
 
 /// What the integrators need of the mass matrix `M` (symmetric positive definite).
