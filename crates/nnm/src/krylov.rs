@@ -13,6 +13,19 @@ use crate::linalg::{self, Mat};
 /// definite `G` (written into the second argument).
 pub type Metric = std::sync::Arc<dyn Fn(&[f64], &mut [f64]) + Send + Sync>;
 
+/// `‖w‖` in `metric`'s inner product (Euclidean when `None`), with `G w` (empty without a
+/// metric).
+pub fn norm_with(metric: Option<&Metric>, w: &[f64]) -> (f64, Vec<f64>) {
+    match metric {
+        None => (linalg::norm(w), Vec::new()),
+        Some(metric) => {
+            let mut gw = vec![0.0; w.len()];
+            metric(w, &mut gw);
+            (linalg::dot(w, &gw).max(0.0).sqrt(), gw)
+        }
+    }
+}
+
 /// An orthonormal basis `V` grown by applying `A` to its vectors in turn, and the projected
 /// matrix `H` with `A V_k = V H` (to the directions dropped as negligible): Arnoldi's process,
 /// optionally seeded with several vectors (then `H` is block Hessenberg). Seeding lets the
@@ -88,14 +101,7 @@ impl Arnoldi {
 
     /// `‖w‖` in the basis' inner product, with `G w` (empty without a metric).
     fn norm(&self, w: &[f64]) -> (f64, Vec<f64>) {
-        match &self.metric {
-            None => (linalg::norm(w), Vec::new()),
-            Some(metric) => {
-                let mut gw = vec![0.0; w.len()];
-                metric(w, &mut gw);
-                (linalg::dot(w, &gw).max(0.0).sqrt(), gw)
-            }
-        }
+        norm_with(self.metric.as_ref(), w)
     }
 
     /// Appends `w / norm` to the basis (`gw = G w`, when there is a metric).

@@ -28,7 +28,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::{Evaluation, Shooting, ShootingError};
 use crate::integrate::{LinearizedFlow, Steps};
-use crate::krylov::{Arnoldi, Metric, gmres};
+use crate::krylov::{Arnoldi, Metric, gmres, norm_with};
 use crate::linalg::{self, Mat, SparseCholesky};
 use crate::model::{Block, BlockMut, MechanicalSystem, SparseMatrix, mass_entries};
 
@@ -68,8 +68,10 @@ pub(super) struct MatrixFree {
     section: Option<Vec<f64>>,
     /// Operator products made by GMRES and Arnoldi, shared with every evaluation's operator.
     pub(super) products: Arc<AtomicUsize>,
-    /// The energy inner product in `u` coordinates (eq. (76a)), when `K` is held sparse.
+    /// The energy inner product in `u` coordinates (eq. (76a)), when `K` is held sparse; and
+    /// the same as the products GMRES and the norms take.
     energy: Option<Arc<EnergyMetric>>,
+    metric: Option<Metric>,
 }
 
 impl std::fmt::Debug for MatrixFree {
@@ -119,12 +121,17 @@ impl MatrixFree {
         });
         let weights = Arc::new(weights);
         let energy = EnergyMetric::new(system, &weights, omega_ref, start).map(Arc::new);
+        let metric = energy.clone().map(|energy| {
+            let metric: Metric = Arc::new(move |u: &[f64], out: &mut [f64]| energy.apply(u, out));
+            metric
+        });
         Ok(Self {
             weights,
             unit,
             section,
             products: Arc::new(AtomicUsize::new(0)),
             energy,
+            metric,
         })
     }
 
@@ -136,22 +143,7 @@ impl MatrixFree {
     /// `ω_max/ω` times its size: on the 1,000-element beam a relative mismatch of 10⁻¹⁴ read
     /// as a residual of 10⁻⁸ and every point after the first stalled.
     pub(super) fn norm(&self, y: &[f64]) -> f64 {
-        match &self.energy {
-            None => linalg::norm(y),
-            Some(energy) => {
-                let mut gy = vec![0.0; y.len()];
-                energy.apply(y, &mut gy);
-                linalg::dot(y, &gy).max(0.0).sqrt()
-            }
-        }
-    }
-
-    /// The energy metric as GMRES takes it.
-    fn metric(&self) -> Option<Metric> {
-        self.energy.clone().map(|energy| {
-            let metric: Metric = Arc::new(move |u: &[f64], out: &mut [f64]| energy.apply(u, out));
-            metric
-        })
+        norm_with(self.metric.as_ref(), y).0
     }
 
     /// `W z`.
@@ -469,7 +461,7 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             phase_row,
             null_column,
             products: free.products.clone(),
-            metric: free.metric(),
+            metric: free.metric.clone(),
         };
         self.stats.krylov_products = free.products.load(Ordering::Relaxed);
         self.finish_evaluation(relative_residual, period);
