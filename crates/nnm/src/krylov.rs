@@ -84,9 +84,10 @@ impl Arnoldi {
     }
 
     /// A basis seeded with `vectors`, orthonormalised in order (one that depends on the
-    /// previous ones to `1e-12` of its norm is skipped); `None` if none is usable.
-    pub fn seeded(vectors: &[&[f64]]) -> Option<Self> {
-        let mut arnoldi = Self::new(vectors.first()?)?;
+    /// previous ones to `1e-12` of its norm is skipped), in `metric`'s inner product
+    /// (Euclidean when `None`); `None` if none is usable.
+    pub fn seeded(vectors: &[&[f64]], metric: Option<Metric>) -> Option<Self> {
+        let mut arnoldi = Self::with_metric(vectors.first()?, metric)?;
         for v in &vectors[1..] {
             let mut w = v.to_vec();
             let size = arnoldi.norm(&w).0;

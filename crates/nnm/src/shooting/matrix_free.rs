@@ -510,8 +510,8 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
     }
 
     /// The Floquet problem of a converged matrix-free point: the Hessenberg matrix of an
-    /// Arnoldi process on the monodromy (`W Φ(T) W⁻¹`), run until its Krylov space is
-    /// invariant to [`ARNOLDI_INVARIANT`] (the damped rest of the spectrum), and the flow and
+    /// Arnoldi process on the monodromy (`W Φ(T) W⁻¹`), orthonormal in the energy metric
+    /// (eq. (76d)), run until its Krylov space is invariant to [`ARNOLDI_INVARIANT`] (the damped rest of the spectrum), and the flow and
     /// family directions in its basis — what [`crate::floquet::FloquetSolver`] takes in place
     /// of the dense monodromy. Its eigenvalues are the multipliers of largest modulus: a
     /// conservative orbit is unstable iff one of them is off the unit circle.
@@ -533,8 +533,11 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         let mixture: Vec<f64> = (0..n2)
             .map(|i| ((i as f64) * 0.618_033_988_75 + 0.5).sin())
             .collect();
-        let mut arnoldi = Arnoldi::seeded(&[&flow_direction, &family_direction, &mixture])
-            .ok_or(ShootingError::Floquet(linalg::LinalgError::NonFinite))?;
+        let mut arnoldi = Arnoldi::seeded(
+            &[&flow_direction, &family_direction, &mixture],
+            free.metric.clone(),
+        )
+        .ok_or(ShootingError::Floquet(linalg::LinalgError::NonFinite))?;
         // Over half a period of an odd system Φ(T) = Φ(T/2)² (docs/method.md §2): the space
         // is grown with the half-period map, half the products, and its projection squared
         // (exact on an invariant space; g is an eigenvector of Φ(T/2), at −1).
