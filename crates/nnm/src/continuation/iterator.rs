@@ -40,6 +40,8 @@ pub struct Continuation<'p, P: ContinuationProblem, D: EventDetector<P>> {
     detector: D,
     settings: ContinuationSettings,
     control: Option<StepControl>,
+    /// The largest arclength the next step may take (set by the caller between steps).
+    cap: Option<f64>,
     /// The last accepted solution and its point.
     current: Option<(Solution, P::Point)>,
     queue: VecDeque<Item<P::Point, D::Event>>,
@@ -87,6 +89,7 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             detector,
             settings: settings.clone(),
             control: None,
+            cap: None,
             current: None,
             queue: VecDeque::new(),
             state: State::NotStarted { u0, pin },
@@ -108,6 +111,13 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
     /// steps: the continuation's own state is not touched).
     pub fn problem_mut(&mut self) -> &mut P {
         self.problem
+    }
+
+    /// Bounds the next step's arclength by `cap` (`None`: no bound), without changing what
+    /// the step control has learnt: the caller shortens a step that would carry the branch
+    /// far past a limit it must end on (docs/method.md eq. (26c)).
+    pub fn cap_next_step(&mut self, cap: Option<f64>) {
+        self.cap = cap.filter(|c| *c > 0.0 && c.is_finite());
     }
 
     /// The last accepted solution.
@@ -163,10 +173,14 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
         let (previous, _) = self.current.as_ref().expect("started");
         let (u, t) = (previous.u.clone(), previous.tangent.clone());
         let index = previous.index + 1;
+        let cap = self.cap.take();
         loop {
             let q = self.problem.amplitude(&u);
             let step = control.next(q);
             let at_minimum = control.at_minimum(q);
+            // A cap shortens the step, not below the minimum (a failure there still ends the
+            // branch), and the step control keeps its own step for the steps after.
+            let step = cap.map_or(step, |cap| step.min(cap.max(control.minimum(q))));
             let predicted = predict(&u, &t, step);
             let outcome = correct(
                 self.problem,

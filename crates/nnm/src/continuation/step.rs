@@ -30,6 +30,11 @@ impl StepControl {
         self.step
     }
 
+    /// The smallest step allowed at a point of the given amplitude.
+    pub fn minimum(&self, amplitude: f64) -> f64 {
+        self.min * amplitude
+    }
+
     /// Whether the current step is the smallest allowed: a failure there ends the branch.
     pub fn at_minimum(&self, amplitude: f64) -> bool {
         self.step <= self.min * amplitude * (1.0 + 1e-12)

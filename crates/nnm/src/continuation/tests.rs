@@ -201,3 +201,44 @@ fn refuses_a_degenerate_start() {
     assert!(matches!(zero_pin, Err(ContinuationError::FirstPoint(_))));
     assert_eq!(circle.evaluations, 0);
 }
+
+/// A cap bounds the next step only: the point after it lies within the cap of the one before
+/// (as a chord of the circle), and the step after that is the step control's again, as large
+/// as before the cap.
+#[test]
+fn a_step_cap_bounds_the_next_step_and_no_other() {
+    let mut circle = Circle {
+        evaluations: 0,
+        wall: f64::INFINITY,
+    };
+    let mut continuation = Continuation::new(
+        &mut circle,
+        vec![0.95, -0.2],
+        &[1.0, 0.0],
+        &settings(),
+        NoEvents,
+    )
+    .unwrap();
+    let mut next_point = || match continuation.next().unwrap().unwrap() {
+        Item::Point(p) => p,
+        Item::Event(e) => match e {},
+    };
+    let chord = |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).hypot(a.1 - b.1);
+    let mut points = vec![next_point(), next_point(), next_point()];
+    let uncapped = chord(points[1], points[2]);
+    drop(next_point);
+    continuation.cap_next_step(Some(0.01));
+    let mut next_point = || match continuation.next().unwrap().unwrap() {
+        Item::Point(p) => p,
+        Item::Event(e) => match e {},
+    };
+    points.push(next_point());
+    points.push(next_point());
+    let capped = chord(points[2], points[3]);
+    let after = chord(points[3], points[4]);
+    // The step is measured along the tangent; the corrected point lies on the circle, a
+    // chord of the same length to O(step³).
+    assert!((capped / 0.01 - 1.0).abs() < 1e-4, "{capped}");
+    assert!(uncapped > 0.05 && after >= uncapped, "{uncapped} then {after}");
+}
+
