@@ -239,6 +239,8 @@ fn a_step_cap_bounds_the_next_step_and_no_other() {
     // The step is measured along the tangent; the corrected point lies on the circle, a
     // chord of the same length to O(step³).
     assert!((capped / 0.01 - 1.0).abs() < 1e-4, "{capped}");
-    assert!(uncapped > 0.05 && after >= uncapped, "{uncapped} then {after}");
+    assert!(
+        uncapped > 0.05 && after >= uncapped,
+        "{uncapped} then {after}"
+    );
 }
-
