@@ -52,29 +52,55 @@ impl Floquet {
 }
 
 impl Floquet {
-    /// The same analysis without the non-trivial multipliers of modulus below `floor`.
+    /// The same analysis without the multipliers a damping integrator made: those inside the
+    /// unit circle by more than `tolerance` whose reciprocal partner is not among them
+    /// (docs/method.md eq. (76)).
     ///
-    /// Why: a damping integrator (Radau IIA) maps the modes it does not resolve to
-    /// multipliers near 0 — artefacts of the scheme with no stability content, since a
-    /// conservative orbit's multipliers lie on the unit circle or in reciprocal pairs. An
-    /// Arnoldi analysis finds a varying number of them from point to point, and the pairing
-    /// and the event tests (which compare the pair counts of consecutive points) must not see
-    /// that variation.
-    pub fn without_damped(&self, floor: f64, tolerance: f64) -> Floquet {
+    /// Why: a conservative orbit's multipliers lie on the unit circle or in reciprocal pairs
+    /// `(μ, 1/μ)` (`(μ, 1/μ̄)` for a quadruplet). A damping integrator (Radau IIA) moves every
+    /// mode inward by its damping, `1 − |μ|` from ~1e-5 for a well-resolved mode to ~1 for
+    /// the unresolved ones; a multiplier inside by more than the stability tolerance, alone,
+    /// is that damping, not dynamics, and its modulus cannot be trusted to judge a crossing of
+    /// `±1` or a Krein collision. An Arnoldi analysis finds a varying number of them from
+    /// point to point — on the 1,000-element beam a real one near 0.002 came and went, read as
+    /// a pair through `+1`, and each time a location of 30 s found nothing. A genuinely
+    /// unstable pair keeps both members (Arnoldi finds the larger first), so the verdict loses
+    /// nothing.
+    pub fn without_damped(&self, tolerance: f64) -> Floquet {
         if self.multipliers.len() < 2 {
             return self.clone();
         }
         let trivial: Vec<Complex> = self.trivial.iter().map(|&i| self.multipliers[i]).collect();
-        let rest: Vec<Complex> = self
+        let rest: Vec<(usize, Complex)> = self
             .multipliers
             .iter()
+            .copied()
             .enumerate()
-            .filter(|(i, z)| !self.trivial.contains(i) && modulus(**z) >= floor)
-            .map(|(_, z)| *z)
+            .filter(|(i, _)| !self.trivial.contains(i))
             .collect();
-        assemble(rest, trivial, tolerance)
+        let partnered = |i: usize, z: Complex| {
+            rest.iter().any(|&(j, w)| {
+                // w = 1/z (a real pair's partner, or a quadruplet's) or w = 1/z̄ (a
+                // quadruplet's other): z w = 1 or z w̄ = 1.
+                let product = (z.0 * w.0 - z.1 * w.1 - 1.0).hypot(z.0 * w.1 + z.1 * w.0);
+                let conjugate = (z.0 * w.0 + z.1 * w.1 - 1.0).hypot(z.1 * w.0 - z.0 * w.1);
+                j != i && product.min(conjugate) < RECIPROCAL_PARTNER
+            })
+        };
+        let kept: Vec<Complex> = rest
+            .iter()
+            .filter(|&&(i, z)| modulus(z) >= 1.0 - tolerance || partnered(i, z))
+            .map(|&(_, z)| z)
+            .collect();
+        assemble(kept, trivial, tolerance)
     }
 }
+
+/// How close `μ ν` (or `μ ν̄`) must come to 1 for `ν` to count as `μ`'s reciprocal partner in
+/// [`Floquet::without_damped`]: loose, since the damping moves both members of an unstable
+/// pair inward (by ~1e-5 to 1e-3 on the resolved modes), while a damped multiplier's would-be
+/// partner lies outside the circle by as much as it lies inside — and none is there.
+const RECIPROCAL_PARTNER: f64 = 0.1;
 
 /// Computes the multipliers of a monodromy matrix: the plug-in point for the eigen-solver
 /// (dense full spectrum today; multipliers of largest modulus by Arnoldi for large models).

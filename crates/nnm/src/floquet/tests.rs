@@ -149,3 +149,53 @@ fn split_analysis_matches_the_whole_and_falls_back_when_coupled() {
     let reference = analyse_deflated(&m, [&e0, &e1], 1e-6).unwrap();
     assert_eq!(coupled, reference);
 }
+
+/// What a damping integrator leaves: a resolved mode just inside the circle (kept, on the
+/// circle to the tolerance), a damped mode well inside and a real multiplier near 0 without
+/// their reciprocal partners (dropped), and a genuinely unstable real pair and quadruplet,
+/// both members moved inward by the damping (kept, unstable).
+#[test]
+fn without_damped_drops_unpartnered_multipliers_inside_the_circle() {
+    let mut m = Mat::<f64>::zeros(16, 16);
+    m[(0, 0)] = 1.0;
+    m[(0, 1)] = 0.5;
+    m[(1, 1)] = 1.0;
+    rotation(&mut m, 2, 1.0 - 1e-5, 0.7);
+    rotation(&mut m, 4, 0.77, 1.2);
+    m[(6, 6)] = 0.002;
+    m[(7, 7)] = 1.3 * (1.0 - 1e-3);
+    m[(8, 8)] = (1.0 - 1e-3) / 1.3;
+    rotation(&mut m, 9, 1.1 * (1.0 - 1e-3), 0.9);
+    rotation(&mut m, 11, (1.0 - 1e-3) / 1.1, 0.9);
+    m[(13, 13)] = -0.5;
+    m[(14, 14)] = 0.9;
+    m[(15, 15)] = 0.99;
+    let tolerance = DEFAULT_STABILITY_TOLERANCE;
+    let all = analyse(&m, tolerance).unwrap();
+    assert_eq!(all.multipliers.len(), 16);
+    let kept = all.without_damped(tolerance);
+    // The trivial pair, the resolved mode's pair, the real pair and the quadruplet.
+    assert_eq!(
+        kept.multipliers.len(),
+        2 + 2 + 2 + 4,
+        "{:?}",
+        kept.multipliers
+    );
+    assert!(kept.multipliers.iter().all(|z| {
+        let r = modulus(*z);
+        (r - 1.0).abs() < 1e-3
+            || (r - 1.3).abs() < 0.01
+            || (r - 1.1).abs() < 0.01
+            || (r - 1.0 / 1.3).abs() < 0.01
+            || (r - 1.0 / 1.1).abs() < 0.01
+    }));
+    assert!(!kept.stable);
+    assert_eq!(kept.unstable_pairs, 3, "{:?}", kept.pairs);
+    assert_eq!(
+        kept.pairs
+            .iter()
+            .filter(|p| p.kind == PairKind::Elliptic)
+            .count(),
+        1
+    );
+}

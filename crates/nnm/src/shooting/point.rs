@@ -5,13 +5,6 @@ use crate::continuation::{ContinuationProblem, Detail, Solution};
 use crate::floquet::Floquet;
 use crate::model::MechanicalSystem;
 
-/// Multipliers below this modulus are left out of a matrix-free point's Floquet analysis
-/// (docs/method.md eq. (76)):
-/// the modes the damping integrator does not resolve ([`Floquet::without_damped`]). A
-/// genuinely unstable pair keeps its member outside the circle, so nothing of the verdict
-/// is lost unless `|μ| > 1000`.
-pub const DAMPED_MULTIPLIER: f64 = 1e-3;
-
 /// A converged point of a branch.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct BranchPoint {
@@ -158,7 +151,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
             self.stability_tolerance,
         )?;
         if self.is_matrix_free() {
-            floquet = floquet.without_damped(DAMPED_MULTIPLIER, self.stability_tolerance);
+            floquet = floquet.without_damped(self.stability_tolerance);
         }
         if !point.energy.is_finite() {
             return Err(ShootingError::NonFiniteEnergy(point.energy));
