@@ -105,6 +105,14 @@ fn settings() -> ContinuationSettings {
     }
 }
 
+/// The continuation of the whole circle from (0.95, −0.2), counter-clockwise.
+fn around_the_circle<D: EventDetector<Circle>>(
+    circle: &mut Circle,
+    detector: D,
+) -> Continuation<'_, Circle, D> {
+    Continuation::new(circle, vec![0.95, -0.2], &[1.0, 0.0], &settings(), detector).unwrap()
+}
+
 /// Every point lies on the circle, the branch keeps its direction (counter-clockwise, set by
 /// the pin), goes all the way round, and each crossing of the y axis is located at
 /// (0, ±1) by trial points corrected on the segment.
@@ -114,14 +122,7 @@ fn follows_the_unit_circle_and_locates_axis_crossings() {
         evaluations: 0,
         wall: f64::INFINITY,
     };
-    let mut continuation = Continuation::new(
-        &mut circle,
-        vec![0.95, -0.2],
-        &[1.0, 0.0],
-        &settings(),
-        CrossesYAxis,
-    )
-    .unwrap();
+    let mut continuation = around_the_circle(&mut circle, CrossesYAxis);
     let (mut points, mut events) = (Vec::new(), Vec::new());
     let mut angle = 0.0f64;
     while angle < 2.2 * std::f64::consts::PI {
@@ -211,29 +212,17 @@ fn a_step_cap_bounds_the_next_step_and_no_other() {
         evaluations: 0,
         wall: f64::INFINITY,
     };
-    let mut continuation = Continuation::new(
-        &mut circle,
-        vec![0.95, -0.2],
-        &[1.0, 0.0],
-        &settings(),
-        NoEvents,
-    )
-    .unwrap();
-    let mut next_point = || match continuation.next().unwrap().unwrap() {
+    let mut continuation = around_the_circle(&mut circle, NoEvents);
+    let next_point = |c: &mut Continuation<'_, Circle, NoEvents>| match c.next().unwrap().unwrap() {
         Item::Point(p) => p,
         Item::Event(e) => match e {},
     };
     let chord = |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).hypot(a.1 - b.1);
-    let mut points = vec![next_point(), next_point(), next_point()];
+    let mut points: Vec<(f64, f64)> = (0..3).map(|_| next_point(&mut continuation)).collect();
     let uncapped = chord(points[1], points[2]);
-    drop(next_point);
     continuation.cap_next_step(Some(0.01));
-    let mut next_point = || match continuation.next().unwrap().unwrap() {
-        Item::Point(p) => p,
-        Item::Event(e) => match e {},
-    };
-    points.push(next_point());
-    points.push(next_point());
+    points.push(next_point(&mut continuation));
+    points.push(next_point(&mut continuation));
     let capped = chord(points[2], points[3]);
     let after = chord(points[3], points[4]);
     // The step is measured along the tangent; the corrected point lies on the circle, a
