@@ -341,6 +341,45 @@ fn limits_are_met_exactly() {
     assert!((last.period - exact).abs() < 1e-8 * exact);
 }
 
+/// The step before a limit ends near it (docs/method.md eq. (26c)): no shooting evaluation
+/// of the branch goes more than a quarter of the last step's remaining distance past
+/// `frequency_shift_max` (plus the corrector's own excursion), where a step grown on the
+/// smooth Duffing backbone went far past it before.
+#[test]
+fn the_step_before_a_limit_is_shortened() {
+    struct Periods(Vec<f64>);
+    impl Observer for &mut Periods {
+        fn point(&mut self, _: &BranchPoint) -> ControlFlow<()> {
+            ControlFlow::Continue(())
+        }
+        fn evaluation(&mut self, progress: &EvaluationProgress) {
+            self.0.push(progress.period);
+        }
+    }
+    let (w0, alpha) = (1.0, 1.0);
+    let structure = duffing(w0, alpha).unwrap();
+    let start = Start::from_mode(&structure, 0).unwrap();
+    let mut settings = Settings::default();
+    settings.limits.frequency_shift_max = 0.3;
+    settings.stability.events = false;
+    let mut periods = Periods(Vec::new());
+    let branch = continue_branch_observed(&structure, &start, &settings, &mut periods).unwrap();
+    assert_eq!(branch.stop, StopReason::FrequencyShiftMax);
+    // Half-period shooting: the evaluations' periods are full periods all the same.
+    let farthest = periods
+        .0
+        .iter()
+        .map(|t| 2.0 * std::f64::consts::PI / t / w0 - 1.0)
+        .fold(0.0, f64::max);
+    let before = branch.points[branch.points.len() - 2].frequency / w0 - 1.0;
+    assert!(before < 0.3);
+    let reach = 0.3 + LIMIT_REACH * (0.3 - before);
+    assert!(
+        farthest < reach + 0.01,
+        "{farthest} past {reach} (last point before at {before})"
+    );
+}
+
 /// Requested energies and frequencies (docs/method.md eq. (26b)) get points exactly on them,
 /// checked against the exact elliptic period of the Duffing oscillator; each is a converged
 /// point with its stability, inserted in branch order, and the regular points are those of
