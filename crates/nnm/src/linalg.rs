@@ -284,12 +284,29 @@ pub fn sparse_row_dot(init: f64, columns: &[usize], values: &[f64], x: &[f64]) -
     if size <= CANCELLATION * sum.abs() {
         return sum;
     }
-    accurate_dot(init, columns.iter().zip(values).map(|(&c, &v)| (v, x[c])))
+    let row = || columns.iter().zip(values).map(|(&c, &v)| (v, x[c]));
+    #[cfg(target_arch = "x86_64")]
+    {
+        // The error-free product is one instruction with FMA, a call into libm without it
+        // (x86-64's baseline lacks FMA): the same correctly rounded result either way, 3%
+        // off the first points of the 1,000-element beam (7.00 → 6.62–6.90 s), where the
+        // libm call alone took 2.8% of a profile (3.7% at 10⁴ dofs).
+        #[target_feature(enable = "fma")]
+        fn with_fma(init: f64, pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
+            accurate_dot(init, pairs)
+        }
+        if std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU supports FMA (checked just above).
+            return unsafe { with_fma(init, row()) };
+        }
+    }
+    accurate_dot(init, row())
 }
 
 /// `init + Σ a_k b_k` accumulated in twice the working precision (Ogita, Rump & Oishi's Dot2:
 /// error-free products by `mul_add`, error-free sums), as if computed in quadruple precision
 /// and rounded once; about five times a plain sum's work.
+#[inline(always)]
 pub fn accurate_dot(init: f64, pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
     let (mut sum, mut error) = (init, 0.0f64);
     for (a, b) in pairs {
