@@ -190,10 +190,21 @@ pub fn linear_modes<S: MechanicalSystem + ?Sized>(
         .flat_map(|k| (0..n).map(move |i| (i, k)))
         .map(|(i, k)| shapes[(i, k)])
         .collect();
+    let is_sparse = sparse.is_some();
     let ops = sparse
         .unwrap_or_else(|| Operators::new(Csr::from_dense(&stiffness), Csr::from_dense(&mass)));
-    let pairs = shift_invert::refine_dense(&ops, &shapes, eigenvalues.len())?;
-    let mut modes = shift_invert::to_modes(pairs)?;
+    let mut modes = match shift_invert::refine_dense(&ops, &shapes, eigenvalues.len()) {
+        // The stiffest clusters of a very stiff model (a von Kármán beam's axial modes) can
+        // stay above the residual tolerance (69) however long they are refined — measured:
+        // 150 to 333 von Kármán elements (447–999 dofs) failed here, with worst residuals
+        // from 6.5e-12 to 3.6e-3 — while the lowest modes, all that matrix-free shooting
+        // needs, converge by shift-invert alone. A sparse model then gets those, as above
+        // DENSE_MODES_LIMIT; a dense one has no such way out.
+        Err(ModesError::NotConverged { .. }) if is_sparse => {
+            shift_invert::to_modes(shift_invert::lowest(&ops, LARGE_MODEL_MODES)?)?
+        }
+        pairs => shift_invert::to_modes(pairs?)?,
+    };
     if let Some(cyclic) = system.cyclic_symmetry() {
         label_cyclic(&mut modes, cyclic, system.mass());
     }
