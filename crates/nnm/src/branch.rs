@@ -174,78 +174,77 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
     };
     let mut continuation =
         Continuation::new(&mut shooting, u0, &pin, &settings.continuation, detector)?;
-    let stop =
-        loop {
-            let item = match continuation.next() {
-                Some(Ok(item)) => item,
-                Some(Err(ContinuationError::StepTooSmall(why))) => {
-                    break StopReason::StepTooSmall(why.to_string());
-                }
-                Some(Err(ContinuationError::FirstPoint(why))) => {
-                    let tolerance = settings.continuation.tolerance;
-                    let why = hint::first_point(why, half_period, tolerance);
-                    return Err(ContinuationError::FirstPoint(why));
-                }
-                Some(Err(error)) => return Err(error),
-                None => break StopReason::MaxPoints,
-            };
-            match item {
-                Item::Event(Found::Event(event)) => {
-                    let flow = observer.borrow_mut().event(&event);
-                    events.push(event);
-                    if flow.is_break() {
-                        break StopReason::Interrupted;
-                    }
-                }
-                Item::Event(Found::Exact { mut point, request }) => {
-                    // On the last segment, a requested point past the limit is not on the branch
-                    // (one on the limit itself is kept, and then ends it).
-                    if passed_limit(limits, start.omega, &point)
-                        .is_some_and(|(_, g)| g > LIMIT_TOLERANCE)
-                    {
-                        continue;
-                    }
-                    hit[request] = true;
-                    describe(continuation.problem_mut(), &mut point);
-                    let flow = observer.borrow_mut().point(&point);
-                    points.push(point);
-                    if flow.is_break() {
-                        break StopReason::Interrupted;
-                    }
-                }
-                Item::Event(Found::Failed { request, why }) => {
-                    let (label, value) = requested.values[request];
-                    missed.push(MissedRequest { label, value, why });
-                }
-                Item::Point(mut point) => {
-                    // A point past a limit is replaced by the point exactly on it (below).
-                    if let Some((reason, _)) = passed_limit(limits, start.omega, &point)
-                        && regular.is_some()
-                    {
-                        beyond = Some(point);
-                        break reason;
-                    }
-                    describe(continuation.problem_mut(), &mut point);
-                    let flow = observer.borrow_mut().point(&point);
-                    let (energy, frequency) = (point.energy, point.frequency);
-                    continuation.cap_next_step(regular.as_ref().and_then(|previous| {
-                        step_to_limits(limits, start.omega, previous, &point)
-                    }));
-                    regular = Some(point.clone());
-                    regular_points += 1;
-                    points.push(point);
-                    if flow.is_break() {
-                        break StopReason::Interrupted;
-                    } else if energy > limits.energy_max {
-                        break StopReason::EnergyMax;
-                    } else if (frequency / start.omega - 1.0).abs() > limits.frequency_shift_max {
-                        break StopReason::FrequencyShiftMax;
-                    } else if regular_points >= limits.max_points {
-                        break StopReason::MaxPoints;
-                    }
+    let stop = loop {
+        let item = match continuation.next() {
+            Some(Ok(item)) => item,
+            Some(Err(ContinuationError::StepTooSmall(why))) => {
+                break StopReason::StepTooSmall(why.to_string());
+            }
+            Some(Err(ContinuationError::FirstPoint(why))) => {
+                let tolerance = settings.continuation.tolerance;
+                let why = hint::first_point(why, half_period, tolerance);
+                return Err(ContinuationError::FirstPoint(why));
+            }
+            Some(Err(error)) => return Err(error),
+            None => break StopReason::MaxPoints,
+        };
+        match item {
+            Item::Event(Found::Event(event)) => {
+                let flow = observer.borrow_mut().event(&event);
+                events.push(event);
+                if flow.is_break() {
+                    break StopReason::Interrupted;
                 }
             }
-        };
+            Item::Event(Found::Exact { mut point, request }) => {
+                // On the last segment, a requested point past the limit is not on the branch
+                // (one on the limit itself is kept, and then ends it).
+                if passed_limit(limits, start.omega, &point)
+                    .is_some_and(|(_, g)| g > LIMIT_TOLERANCE)
+                {
+                    continue;
+                }
+                hit[request] = true;
+                describe(continuation.problem_mut(), &mut point);
+                let flow = observer.borrow_mut().point(&point);
+                points.push(point);
+                if flow.is_break() {
+                    break StopReason::Interrupted;
+                }
+            }
+            Item::Event(Found::Failed { request, why }) => {
+                let (label, value) = requested.values[request];
+                missed.push(MissedRequest { label, value, why });
+            }
+            Item::Point(mut point) => {
+                // A point past a limit is replaced by the point exactly on it (below).
+                if let Some((reason, _)) = passed_limit(limits, start.omega, &point)
+                    && regular.is_some()
+                {
+                    beyond = Some(point);
+                    break reason;
+                }
+                describe(continuation.problem_mut(), &mut point);
+                let flow = observer.borrow_mut().point(&point);
+                let (energy, frequency) = (point.energy, point.frequency);
+                let previous = regular.as_ref();
+                let cap = previous.and_then(|p| step_to_limits(limits, start.omega, p, &point));
+                continuation.cap_next_step(cap);
+                regular = Some(point.clone());
+                regular_points += 1;
+                points.push(point);
+                if flow.is_break() {
+                    break StopReason::Interrupted;
+                } else if energy > limits.energy_max {
+                    break StopReason::EnergyMax;
+                } else if (frequency / start.omega - 1.0).abs() > limits.frequency_shift_max {
+                    break StopReason::FrequencyShiftMax;
+                } else if regular_points >= limits.max_points {
+                    break StopReason::MaxPoints;
+                }
+            }
+        }
+    };
     let mut counters = continuation.stats();
     drop(continuation);
     if let (Some(next), Some(previous)) = (beyond, regular.as_ref()) {
