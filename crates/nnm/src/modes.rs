@@ -167,13 +167,27 @@ pub fn linear_modes<S: MechanicalSystem + ?Sized>(
 ) -> Result<Vec<LinearMode>, ModesError> {
     let n = system.dofs();
     let sparse = Operators::sparse(system);
-    if let Some(ops) = sparse.as_ref().filter(|_| n > DENSE_MODES_LIMIT) {
-        let mut modes = shift_invert::to_modes(shift_invert::lowest(ops, LARGE_MODEL_MODES)?)?;
-        if let Some(cyclic) = system.cyclic_symmetry() {
-            label_cyclic(&mut modes, cyclic, system.mass());
-        }
-        return Ok(modes);
+    let lowest =
+        |ops: &Operators| shift_invert::to_modes(shift_invert::lowest(ops, LARGE_MODEL_MODES)?);
+    let mut modes = match sparse {
+        Some(ops) if n > DENSE_MODES_LIMIT => lowest(&ops)?,
+        sparse => all_modes(system, sparse, lowest)?,
+    };
+    if let Some(cyclic) = system.cyclic_symmetry() {
+        label_cyclic(&mut modes, cyclic, system.mass());
     }
+    Ok(modes)
+}
+
+/// Every mode of `system` by a dense eigen-decomposition refined against `K` and `M`
+/// ([`linear_modes`]), or `lowest` of its sparse operators when the stiff end cannot be
+/// refined to the residual check.
+fn all_modes<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    sparse: Option<Operators>,
+    lowest: impl Fn(&Operators) -> Result<Vec<LinearMode>, ModesError>,
+) -> Result<Vec<LinearMode>, ModesError> {
+    let n = system.dofs();
     let (mass, stiffness) = linearised_matrices(system);
     let l =
         linalg::cholesky_lower(mass.as_ref()).map_err(|_| ModesError::MassNotPositiveDefinite)?;
@@ -193,22 +207,16 @@ pub fn linear_modes<S: MechanicalSystem + ?Sized>(
     let is_sparse = sparse.is_some();
     let ops = sparse
         .unwrap_or_else(|| Operators::new(Csr::from_dense(&stiffness), Csr::from_dense(&mass)));
-    let mut modes = match shift_invert::refine_dense(&ops, &shapes, eigenvalues.len()) {
+    match shift_invert::refine_dense(&ops, &shapes, eigenvalues.len()) {
         // The stiffest clusters of a very stiff model (a von Kármán beam's axial modes) can
         // stay above the residual tolerance (69) however long they are refined — measured:
         // 150 to 333 von Kármán elements (447–999 dofs) failed here, with worst residuals
         // from 6.5e-12 to 3.6e-3 — while the lowest modes, all that matrix-free shooting
         // needs, converge by shift-invert alone. A sparse model then gets those, as above
         // DENSE_MODES_LIMIT; a dense one has no such way out.
-        Err(ModesError::NotConverged { .. }) if is_sparse => {
-            shift_invert::to_modes(shift_invert::lowest(&ops, LARGE_MODEL_MODES)?)?
-        }
-        pairs => shift_invert::to_modes(pairs?)?,
-    };
-    if let Some(cyclic) = system.cyclic_symmetry() {
-        label_cyclic(&mut modes, cyclic, system.mass());
+        Err(ModesError::NotConverged { .. }) if is_sparse => lowest(&ops),
+        pairs => shift_invert::to_modes(pairs?),
     }
-    Ok(modes)
 }
 
 /// The `count` lowest modes of `system`, in ascending frequency, by shift-invert subspace
