@@ -72,6 +72,25 @@ pub trait MechanicalSystem: Sync {
         unimplemented!("tangent_values is required when tangent_pattern returns a pattern")
     }
 
+    /// The dofs the nonlinearity lives on, when it is localised (joints, contact or cubic
+    /// springs on a linear finite-element model): `K_t(x) − K_t(0)` must vanish outside these
+    /// rows and columns for every `x`. `None` (the default): anywhere. With a
+    /// [`Self::tangent_pattern`], the implicit integrator then factorises its stage system
+    /// once per step size and updates it by the nonlinear dofs' low-rank part every step
+    /// (docs/method.md eq. (32e)).
+    fn nonlinear_dofs(&self) -> Option<&[usize]> {
+        None
+    }
+
+    /// Writes `K_t(x) − K_t(0)` on [`Self::nonlinear_dofs`] (`p × p`, column-major, in their
+    /// order), computed from the nonlinear part alone. Why not as a difference of whole
+    /// tangents: a fine mesh's diagonal stiffness there can be 10⁸ times the nonlinear
+    /// spring's (2·10¹³ against 3·10⁵ N/m at the tip of the 1,000-element ECL beam), and the
+    /// difference would keep only half its digits. Called only when the dofs are given.
+    fn nonlinear_tangent(&self, _x: &[f64], _out: &mut [f64]) {
+        unimplemented!("nonlinear_tangent is required when nonlinear_dofs returns the dofs")
+    }
+
     /// Cyclic symmetry (sector-major dof numbering), for `(n, d)` labels and mirror classes.
     fn cyclic_symmetry(&self) -> Option<CyclicSymmetry> {
         None
