@@ -617,7 +617,11 @@ mod tests {
         let mut block = [0.0];
         beam.nonlinear_tangent(&x, &mut block);
         let exact = 3.0 * 6e9 * 4e-3 * 4e-3;
-        assert!((block[0] - exact).abs() <= 1e-15 * exact, "{} vs {exact}", block[0]);
+        assert!(
+            (block[0] - exact).abs() <= 1e-15 * exact,
+            "{} vs {exact}",
+            block[0]
+        );
         let mut whole = vec![0.0; beam.tangent_pattern().unwrap().nonzeros()];
         let position = beam.tangent_pattern().unwrap().position(tip, tip).unwrap();
         beam.tangent_values(&x, &mut whole);
