@@ -9,7 +9,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use nnm::analysis::{RegimeKind, regime_changes};
 use nnm::bifurcation::{Event, switch_branch};
 use nnm::model::Structure;
-use nnm::modes::{LinearMode, linear_modes};
+use nnm::modes::{LinearMode, add_labelled_mode, linear_modes};
 use nnm::shooting::{EvaluationProgress, Travel};
 use nnm::{Branch, BranchPoint, Observer, Start, StopReason, continue_branch_observed};
 use nnm_io::job::{BranchJob, EventStart, load_job, resolve_mode};
@@ -129,7 +129,12 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
             job_path.display()
         );
     }
-    let modes = linear_modes(&job.structure).context("modal analysis failed")?;
+    let mut modes = linear_modes(&job.structure).context("modal analysis failed")?;
+    // A label beyond the lowest modes of a large cyclic model (its sector problem).
+    for b in job.branches.iter().filter(|b| b.from_event.is_none()) {
+        add_labelled_mode(&job.structure, &mut modes, &b.mode, b.pattern)
+            .with_context(|| format!("branch `{}`: modal analysis failed", b.name))?;
+    }
     let requests = resolve(&job.branches, &modes)?;
     let _lock = OutDir::lock(out)?;
     warn_of_foreign_branches(out, &job.branches);

@@ -401,7 +401,9 @@ impl NativeModel {
                 nnm_io::job::branch_body(table, &toml::Table::new(), false).map_err(input_error)?
             }
         };
-        let modes = self.linear_modes(py)?;
+        let mut modes = self.linear_modes(py)?;
+        nnm::modes::add_labelled_mode(&self.structure, &mut modes, &body.mode, body.pattern)
+            .map_err(|e| PyValueError::new_err(format!("modal analysis failed: {e}")))?;
         let index = nnm_io::job::resolve_mode(&modes, &body.mode, body.pattern)
             .map_err(PyValueError::new_err)?;
         let structure = &self.structure;

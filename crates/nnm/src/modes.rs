@@ -12,8 +12,10 @@ use std::f64::consts::PI;
 use crate::linalg::{self, LinalgError, Mat};
 use crate::model::{Block, BlockMut, CyclicSymmetry, MassOperator, MechanicalSystem};
 
+mod sectors;
 mod shift_invert;
 
+pub use sectors::add_labelled_mode;
 use shift_invert::{Csr, Operators};
 pub use shift_invert::{ELASTIC_ROUNDING, RESIDUAL_ROUNDING, RESIDUAL_TOLERANCE, RIGID_ROUNDING};
 

@@ -298,7 +298,7 @@ impl Check {
 }
 
 /// The residual `r = K v − θ M v` (double-double, rounded) and the check of eq. (69)–(70).
-fn check(ops: &Operators, v: &[f64], r: &mut [f64]) -> Check {
+pub(super) fn check(ops: &Operators, v: &[f64], r: &mut [f64]) -> Check {
     let n = ops.n();
     let (mut kh, mut kl, mut mh, mut ml) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     ops.k.times_dd(v, &mut kh, &mut kl);
