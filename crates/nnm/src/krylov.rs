@@ -193,13 +193,14 @@ pub struct GmresSolution {
     pub relative_residual: f64,
 }
 
-/// GMRES (Saad & Schultz) for `A x = b` from `x = 0`, until `‖b − A x‖ ≤ tolerance ‖b‖` or
-/// `max_iterations` products: each step minimises the residual over the Krylov space, by
-/// Givens rotations of the Hessenberg columns as they come.
+/// GMRES (Saad & Schultz) for `A x = b` from `x = 0`, until `‖b − A x‖ ≤ relative ‖b‖`, or
+/// `≤ absolute`, or `max_iterations` products (`(relative, absolute) = tolerances`): each
+/// step minimises the residual over the Krylov space, by Givens rotations of the Hessenberg
+/// columns as they come.
 pub fn gmres(
     mut apply: impl FnMut(&[f64], &mut [f64]),
     b: &[f64],
-    tolerance: f64,
+    (relative, absolute): (f64, f64),
     max_iterations: usize,
     metric: Option<Metric>,
 ) -> GmresSolution {
@@ -211,6 +212,7 @@ pub fn gmres(
         };
     };
     let beta = arnoldi.norm(b).0;
+    let tolerance = relative.max(absolute / beta);
     // The rotated Hessenberg R, the rotations, and the rotated right-hand side β e₁.
     let mut r: Vec<Vec<f64>> = Vec::new();
     let mut rotations: Vec<(f64, f64)> = Vec::new();
@@ -299,7 +301,7 @@ mod tests {
         let n = 40;
         let a = operator(n);
         let b: Vec<f64> = (0..n).map(|i| 1.0 + (i % 3) as f64).collect();
-        let solution = gmres(apply(&a), &b, 1e-12, n, None);
+        let solution = gmres(apply(&a), &b, (1e-12, 0.0), n, None);
         assert!(solution.relative_residual <= 1e-12);
         let exact = linalg::least_squares(a.as_ref(), &b);
         for (x, e) in solution.x.iter().zip(&exact) {
@@ -337,7 +339,7 @@ mod tests {
             }
         };
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sqrt()).collect();
-        let solution = gmres(product, &b, 1e-12, n, None);
+        let solution = gmres(product, &b, (1e-12, 0.0), n, None);
         assert!(solution.iterations <= rank + 1, "{}", solution.iterations);
         assert!(solution.relative_residual <= 1e-12);
     }

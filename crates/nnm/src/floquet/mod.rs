@@ -332,6 +332,57 @@ fn reflect_both_sides(v: &[f64], a: &mut Mat<f64>) {
     }
 }
 
+/// Multipliers of a monodromy that is block diagonal in known coordinates (the harmonics of
+/// a cyclic structure, docs/method.md eq. (76e)): `with_trivial` holds both trivial
+/// directions and is deflated as in [`analyse_deflated`]; every block of `others` must be
+/// closed under `μ → 1/μ` on its own (a harmonic with its opposite), so the pairs are formed
+/// within each block — `O(Σ size²)`, where pairing the whole spectrum at once is quadratic in
+/// its size (2·10⁴ multipliers on a 5,000-sector disk).
+pub fn analyse_blocks(
+    with_trivial: &Mat<f64>,
+    directions: [&[f64]; 2],
+    others: &[Mat<f64>],
+    tolerance: f64,
+) -> Result<Floquet, LinalgError> {
+    let first = analyse_deflated(with_trivial, directions, tolerance)?;
+    let trivial: Vec<Complex> = first
+        .trivial
+        .iter()
+        .map(|&i| first.multipliers[i])
+        .collect();
+    let mut rest: Vec<Complex> = (0..first.multipliers.len())
+        .filter(|i| !first.trivial.contains(i))
+        .map(|i| first.multipliers[i])
+        .collect();
+    let (mut pairs, mut defect) = (first.pairs, first.reciprocity_defect);
+    for block in others {
+        let mut values = linalg::eigenvalues(block.as_ref())?;
+        values.sort_by(|a, b| modulus(*b).total_cmp(&modulus(*a)));
+        let (block_pairs, block_defect) = pair_up(&values, tolerance);
+        pairs.extend(block_pairs);
+        defect = defect.max(block_defect);
+        rest.extend(values);
+    }
+    pairs.sort_by_key(|p| p.kind == PairKind::Elliptic);
+    rest.sort_by(|a, b| modulus(*b).total_cmp(&modulus(*a)));
+    let max_modulus = rest.first().map_or(1.0, |z| modulus(*z));
+    let count = rest.len();
+    let mut multipliers = rest;
+    multipliers.extend(trivial);
+    Ok(Floquet {
+        stable: max_modulus <= 1.0 + tolerance,
+        unstable_pairs: pairs
+            .iter()
+            .filter(|p| p.kind != PairKind::Elliptic)
+            .count(),
+        trivial: [count, (count + 1).min(multipliers.len().saturating_sub(1))],
+        multipliers,
+        pairs,
+        max_modulus,
+        reciprocity_defect: defect,
+    })
+}
+
 fn assemble(mut rest: Vec<Complex>, trivial: Vec<Complex>, tolerance: f64) -> Floquet {
     rest.sort_by(|a, b| modulus(*b).total_cmp(&modulus(*a)));
     let max_modulus = rest.first().map_or(1.0, |z| modulus(*z));

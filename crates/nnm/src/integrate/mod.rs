@@ -225,6 +225,15 @@ impl IntegrationMethod {
         }
     }
 
+    /// A collocation method (Gauss–Legendre, Radau IIA): implicit, and able to record its
+    /// linearised steps for matrix-free shooting.
+    pub fn is_collocation(self) -> bool {
+        matches!(
+            self,
+            IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 | IntegrationMethod::Radau5
+        )
+    }
+
     /// The integrator of this method for `system` (`Auto` unresolved: DOP853; resolve first).
     pub fn integrator<'a, S: crate::model::MechanicalSystem + ?Sized>(
         self,

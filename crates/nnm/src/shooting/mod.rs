@@ -364,6 +364,17 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             ),
             Formulation::Dense => (false, None),
         };
+        // Matrix-free shooting replays a collocation method's linearised steps; a model that
+        // only needs it for its size (not stiff: a disk of thousands of sectors) gets the
+        // symplectic one, which neither damps nor amplifies any mode (docs/method.md §15).
+        let method = if matrix_free
+            && settings.integration.integrator == IntegrationMethod::Auto
+            && !method.is_collocation()
+        {
+            IntegrationMethod::Gauss6
+        } else {
+            method
+        };
         let (matrix_free, unsupported) = if matrix_free {
             match matrix_free::MatrixFree::new(
                 system,

@@ -127,32 +127,16 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
         if detail == Detail::Light {
             return Ok(point);
         }
-        // The trivial pair spans the flow direction g(z0) and the direction along the family:
-        // deflate it rather than guess it from the spectrum (degenerate partners also sit
-        // near +1, docs/method.md §13).
-        let (monodromy, [flow_direction, family_direction], class) = if self.is_matrix_free() {
-            let (projected, directions) =
-                self.matrix_free_monodromy(evaluation, &solution.tangent)?;
-            (projected, directions, None)
-        } else {
-            let mut monodromy = self.monodromy(evaluation)?;
-            let mut flow_direction = self.modal_coordinates(&self.field(&evaluation.z0));
-            let mut family_direction =
-                self.modal_coordinates(&self.initial_state(&solution.tangent));
-            self.energy_scaling(&mut monodromy, [&mut flow_direction, &mut family_direction]);
-            let class = self.unknown_block();
-            (monodromy, [flow_direction, family_direction], class)
+        // A cyclic structure's orbit that is alike in every sector: every multiplier from a
+        // few products (eq. (76e)).
+        let cyclic = self
+            .is_matrix_free()
+            .then(|| self.cyclic_floquet(evaluation, &solution.tangent))
+            .flatten();
+        let floquet = match cyclic {
+            Some(floquet) => floquet?,
+            None => self.floquet_of(evaluation, solution)?,
         };
-        let directions = [flow_direction.as_slice(), family_direction.as_slice()];
-        let mut floquet = self.floquet.analyse(
-            &monodromy,
-            directions,
-            class.as_deref(),
-            self.stability_tolerance,
-        )?;
-        if self.is_matrix_free() {
-            floquet = floquet.without_damped(self.stability_tolerance);
-        }
         if !point.energy.is_finite() {
             return Err(ShootingError::NonFiniteEnergy(point.energy));
         }
@@ -174,6 +158,42 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
 }
 
 impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
+    /// The Floquet analysis of a point: of its dense monodromy, or of the Arnoldi projection
+    /// of the matrix-free one.
+    fn floquet_of(
+        &mut self,
+        evaluation: &Evaluation,
+        solution: &Solution,
+    ) -> Result<Floquet, ShootingError> {
+        // The trivial pair spans the flow direction g(z0) and the direction along the family:
+        // deflate it rather than guess it from the spectrum (degenerate partners also sit
+        // near +1, docs/method.md §13).
+        let (monodromy, [flow_direction, family_direction], class) = if self.is_matrix_free() {
+            let (projected, directions) =
+                self.matrix_free_monodromy(evaluation, &solution.tangent)?;
+            (projected, directions, None)
+        } else {
+            let mut monodromy = self.monodromy(evaluation)?;
+            let mut flow_direction = self.modal_coordinates(&self.field(&evaluation.z0));
+            let mut family_direction =
+                self.modal_coordinates(&self.initial_state(&solution.tangent));
+            self.energy_scaling(&mut monodromy, [&mut flow_direction, &mut family_direction]);
+            let class = self.unknown_block();
+            (monodromy, [flow_direction, family_direction], class)
+        };
+        let floquet = self.floquet.analyse(
+            &monodromy,
+            [flow_direction.as_slice(), family_direction.as_slice()],
+            class.as_deref(),
+            self.stability_tolerance,
+        )?;
+        Ok(if self.is_matrix_free() {
+            floquet.without_damped(self.stability_tolerance)
+        } else {
+            floquet
+        })
+    }
+
     /// `dE/ds` along the unit tangent `t` at unknowns `u`, by the five-point central
     /// difference (exact for the quartic energy of cubic springs; `O(h⁴)` otherwise, with
     /// `h = 1e-3 ‖q‖`).
