@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use nnm::integrate::IntegrationMethod;
 use nnm::model::{BladedDisk, CantileverBeam, Structure, VonKarmanBeam, duffing, two_dof};
-use nnm::modes::{find_mode, linear_modes};
+use nnm::modes::{add_labelled_mode, find_mode, linear_modes};
 use nnm::shooting::{Formulation, JacobianMethod, Travel};
 use nnm::{Branch, Settings, Start, continue_branch};
 
@@ -133,7 +133,7 @@ fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<
         .collect()
 }
 
-pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
+pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
     let disk = BladedDisk::default().build()?;
     let start_1_5 = start(&disk, "1,5")?;
     let mut rows = shooting_rows(&disk, &start_1_5, repeat.max(1))?;
@@ -204,16 +204,16 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
     )?);
     let groups = rows.len() / 2;
     let mut sizes = vec![2; groups];
+    let beam_settings = |shift: f64| {
+        let mut s = Settings::default();
+        s.limits.frequency_shift_max = shift;
+        s.stability.events = false;
+        s
+    };
     if stiff {
         // Stiff finite-element models: the implicit integrator chosen automatically, the
         // beam's first mode to +20% as refinement grows (the targets), and on the
         // 19-element beam its first two points against the explicit integrator.
-        let beam_settings = |shift: f64| {
-            let mut s = Settings::default();
-            s.limits.frequency_shift_max = shift;
-            s.stability.events = false;
-            s
-        };
         // Dense and matrix-free formulations (docs/method.md §15) side by side on the same
         // damping integrator.
         let formulation = |f: Formulation| {
@@ -265,6 +265,43 @@ pub fn bench(repeat: usize, stiff: bool) -> Result<()> {
             &plate,
             &start_at(&plate, "0", Some(1e-4))?,
             &[("auto", beam_settings(0.08))],
+        )?);
+        sizes.push(1);
+    }
+    if large {
+        // Large models, matrix-free: the 1,000-element ECL beam (stiff, one nonlinear dof)
+        // and the 5,000-sector disk's (1,0) mode in the full space (not stiff; every
+        // multiplier from the sector harmonics, docs/method.md eq. (76e)).
+        let beam = CantileverBeam {
+            elements: 1000,
+            ..CantileverBeam::default()
+        }
+        .build()?;
+        eprintln!("bench: beam of 1,000 elements");
+        rows.extend(variant_rows(
+            "beam 1,000 el. (2,000 dofs) to +20%",
+            &beam,
+            &start(&beam, "0")?,
+            &[("auto", beam_settings(0.2))],
+        )?);
+        sizes.push(1);
+        let disk = BladedDisk {
+            sectors: 5000,
+            ..BladedDisk::default()
+        }
+        .build()?;
+        eprintln!("bench: disk of 5,000 sectors");
+        let mut modes = linear_modes(&disk)?;
+        add_labelled_mode(&disk, &mut modes, "1,0", None)?;
+        let (index, _) = find_mode(&modes, "1,0", None).context("mode")?;
+        let mut settings = beam_settings(0.2);
+        settings.start.symmetry = false;
+        let start = Start::for_branch(&disk, &modes, index, None, &settings)?;
+        rows.extend(variant_rows(
+            "disk 5,000 sectors (1,0) to +20%",
+            &disk,
+            &start,
+            &[("auto", settings)],
         )?);
         sizes.push(1);
     }
