@@ -112,3 +112,22 @@ def test_bladed_disk_mode_1_0_is_the_duffing_oscillator_of_its_blades() -> None:
     np.testing.assert_allclose(
         branch.energy, sectors * (0.5 * k * amplitude**2 + 0.25 * knl * amplitude**4), rtol=1e-7
     )
+
+
+def test_mode_1_0_of_a_large_disk_from_its_label_with_every_multiplier() -> None:
+    """1,500 sectors (3,000 dofs): mode (1,0) lies beyond the lowest modes computed at that
+    size and comes from the sector problem by its label; shot matrix-free in the full space
+    (``symmetry=False``), every point is the Duffing oscillator of its blades and stable, with
+    all ``2n`` Floquet multipliers from the sector harmonics (docs/method.md eqs. (53b), (76e))."""
+    k, knl, m, M, sectors = 1.0, 0.1, 0.3, 1.0, 1500
+    model = nnm.bladed_disk(sectors=sectors)
+    branch = nnm.backbone(model, (1, 0), frequency_shift_max=0.2, symmetry=False, events=False)
+    inverse_mass = 1 / m + 1 / M
+    w0, alpha = np.sqrt(k * inverse_mass), knl * inverse_mass
+    assert abs(branch.linear_frequency - w0) < 1e-12 * w0
+    x0 = branch.displacement0
+    amplitude = np.abs(x0[:, 1] - x0[:, 0])
+    assert np.max(np.abs(branch.period / duffing_period(w0, alpha, amplitude) - 1.0)) < 1e-8
+    assert branch.frequency[-1] > 1.199 * w0
+    assert branch.stable.all()
+    assert branch.multipliers.shape == (len(branch.energy), 2 * 2 * sectors)
