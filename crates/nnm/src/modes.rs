@@ -191,17 +191,7 @@ fn all_modes<S: MechanicalSystem + ?Sized>(
 ) -> Result<Vec<LinearMode>, ModesError> {
     let n = system.dofs();
     let (mass, stiffness) = linearised_matrices(system);
-    let l =
-        linalg::cholesky_lower(mass.as_ref()).map_err(|_| ModesError::MassNotPositiveDefinite)?;
-    // A = L⁻¹ K L⁻ᵀ, built as L⁻¹ (L⁻¹ K)ᵀ since K is symmetric.
-    let mut a = stiffness.clone();
-    linalg::solve_lower_in_place(l.as_ref(), &mut a);
-    let mut a = a.transpose().to_owned();
-    linalg::solve_lower_in_place(l.as_ref(), &mut a);
-    let a = Mat::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
-    let (eigenvalues, w) = linalg::symmetric_eigen(a.as_ref())?;
-    let mut shapes = w;
-    linalg::solve_lower_transpose_in_place(l.as_ref(), &mut shapes);
+    let (eigenvalues, shapes) = symmetric_pencil(&stiffness, &mass)?;
     let shapes: Vec<f64> = (0..n)
         .flat_map(|k| (0..n).map(move |i| (i, k)))
         .map(|(i, k)| shapes[(i, k)])
@@ -219,6 +209,27 @@ fn all_modes<S: MechanicalSystem + ?Sized>(
         Err(ModesError::NotConverged { .. }) if is_sparse => lowest(&ops),
         pairs => shift_invert::to_modes(pairs?),
     }
+}
+
+/// `K v = λ M v` for dense symmetric `K` and positive definite `M`: the eigenvalues in
+/// ascending order and the `M`-orthonormal eigenvectors as columns, by the reduction
+/// `L⁻¹ K L⁻ᵀ` (`M = L Lᵀ`) to a standard symmetric problem.
+fn symmetric_pencil(
+    stiffness: &Mat<f64>,
+    mass: &Mat<f64>,
+) -> Result<(Vec<f64>, Mat<f64>), ModesError> {
+    let n = mass.nrows();
+    let l =
+        linalg::cholesky_lower(mass.as_ref()).map_err(|_| ModesError::MassNotPositiveDefinite)?;
+    // A = L⁻¹ K L⁻ᵀ, built as L⁻¹ (L⁻¹ K)ᵀ since K is symmetric.
+    let mut a = stiffness.clone();
+    linalg::solve_lower_in_place(l.as_ref(), &mut a);
+    let mut a = a.transpose().to_owned();
+    linalg::solve_lower_in_place(l.as_ref(), &mut a);
+    let a = Mat::from_fn(n, n, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
+    let (eigenvalues, mut vectors) = linalg::symmetric_eigen(a.as_ref())?;
+    linalg::solve_lower_transpose_in_place(l.as_ref(), &mut vectors);
+    Ok((eigenvalues, vectors))
 }
 
 /// The `count` lowest modes of `system`, in ascending frequency, by shift-invert subspace

@@ -12,7 +12,9 @@
 use std::f64::consts::PI;
 
 use super::shift_invert::{self, Operators};
-use super::{CyclicLabel, LinearMode, ModesError, StandingWave, find_mode, standing_waves};
+use super::{
+    CyclicLabel, LinearMode, ModesError, StandingWave, find_mode, standing_waves, symmetric_pencil,
+};
 use crate::linalg::{self, Mat};
 use crate::model::MechanicalSystem;
 
@@ -159,15 +161,7 @@ fn sector_shape(
             }
         })
     };
-    let (k, m) = (real_form(k_d), real_form(m_d));
-    let l = linalg::cholesky_lower(m.as_ref()).map_err(|_| ModesError::MassNotPositiveDefinite)?;
-    let mut a = k;
-    linalg::solve_lower_in_place(l.as_ref(), &mut a);
-    let mut a = a.transpose().to_owned();
-    linalg::solve_lower_in_place(l.as_ref(), &mut a);
-    let a = Mat::from_fn(size, size, |i, j| 0.5 * (a[(i, j)] + a[(j, i)]));
-    let (_, mut vectors) = linalg::symmetric_eigen(a.as_ref())?;
-    linalg::solve_lower_transpose_in_place(l.as_ref(), &mut vectors);
+    let (_, vectors) = symmetric_pencil(&real_form(k_d), &real_form(m_d))?;
     let column = if single { circles } else { 2 * circles };
     Ok((0..s)
         .map(|r| {
