@@ -76,7 +76,7 @@ enum Command {
         #[arg(long, default_value_t = 5)]
         repeat: usize,
         /// Also the stiff finite-element cases (cantilever beams of 19, 50, 100 and 200 elements,
-        /// the von Kármán beam; about two minutes).
+        /// the von Kármán beam; about a minute).
         #[arg(long)]
         stiff: bool,
         /// Also the large matrix-free cases (the 1,000-element beam, the (1,0) mode of a
