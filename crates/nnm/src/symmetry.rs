@@ -100,6 +100,112 @@ pub(crate) fn is_odd<S: MechanicalSystem + ?Sized>(system: &S, amplitude: f64) -
     })
 }
 
+/// A parity of the system under which `shape` is odd (docs/method.md eq. (9b)): the signs
+/// `s_i = −1` on every group of dofs that the linear `M` and `K_t(0)` couple to a dof where
+/// `shape` moves, `+1` on the others, when the internal force then commutes with `S = diag(s)`
+/// (`f(S x) = S f(x)` at sample states of size `amplitude`; `S M = M S` and `S K S = K` hold
+/// by construction). `None` when `shape` moves every group (the odd case, [`is_odd`]) or the
+/// force breaks the parity.
+///
+/// Why: a von Kármán beam or plate is not odd (its membrane force is even in the transverse
+/// displacement), but flipping the transverse dofs and keeping the in-plane ones is a
+/// symmetry; a bending mode's motion is then half-wave symmetric in that sense,
+/// `z(T/2) = S z0`, and is shot over half its period.
+pub(crate) fn parity_of<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    shape: &[f64],
+    amplitude: f64,
+) -> Option<Vec<f64>> {
+    let n = system.dofs();
+    // Groups: connected components of the linear coupling graph (union–find).
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut join = |i: usize, j: usize| {
+        let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+        if a != b {
+            parent[a] = b;
+        }
+    };
+    let mass = crate::model::mass_entries(system.mass());
+    let rest = vec![0.0; n];
+    let mut couple = |pattern: &crate::model::SparsityPattern, values: &[f64]| {
+        for r in 0..n {
+            for p in pattern.row_start[r]..pattern.row_start[r + 1] {
+                if values[p] != 0.0 {
+                    join(r, pattern.col[p]);
+                }
+            }
+        }
+    };
+    couple(mass.pattern(), mass.values());
+    if let Some(pattern) = system.tangent_pattern() {
+        let mut values = vec![0.0; pattern.nonzeros()];
+        system.tangent_values(&rest, &mut values);
+        couple(pattern, &values);
+    } else {
+        let identity: Vec<f64> = (0..n * n)
+            .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
+            .collect();
+        let mut k = vec![0.0; n * n];
+        system.tangent_stiffness(
+            &rest,
+            crate::model::Block::new(&identity, n, n, n),
+            crate::model::BlockMut::new(&mut k, n, n, n),
+        );
+        for c in 0..n {
+            for r in 0..n {
+                if k[c * n + r] != 0.0 {
+                    join(r, c);
+                }
+            }
+        }
+    }
+    let peak = shape[..n].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if peak == 0.0 {
+        return None;
+    }
+    let mut moving = vec![false; n];
+    for (i, v) in shape[..n].iter().enumerate() {
+        if v.abs() > 1e-6 * peak {
+            moving[root(&mut parent, i)] = true;
+        }
+    }
+    let signs: Vec<f64> = (0..n)
+        .map(|i| {
+            if moving[root(&mut parent, i)] {
+                -1.0
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    if signs.iter().all(|&s| s < 0.0) {
+        return None;
+    }
+    let flip = |x: &[f64]| {
+        x.iter()
+            .zip(&signs)
+            .map(|(x, s)| x * s)
+            .collect::<Vec<f64>>()
+    };
+    sample_states(n, amplitude)
+        .into_iter()
+        .all(|x| {
+            let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+            system.internal_force(&flip(&x), &mut a);
+            system.internal_force(&x, &mut b);
+            let scale = b.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+            close(&a, &flip(&b), scale)
+        })
+        .then_some(signs)
+}
+
 /// Checks that the mirror reflection is a symmetry of the whole system (`M R v = R M v` and
 /// `f_int(R x) = R f_int(x)` at sample states, which checks `K` and the nonlinear forces
 /// together); returns it.

@@ -6,6 +6,7 @@ use std::ops::ControlFlow;
 
 use nnm::model::VonKarmanBeam;
 use nnm::prelude::*;
+use nnm::shooting::Formulation;
 
 /// Solves the small dense system `a x = b` by Gaussian elimination with partial pivoting.
 fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
@@ -119,4 +120,67 @@ fn a_fine_mesh_gets_its_lowest_modes_when_the_full_spectrum_fails_its_check() {
         (first / theory - 1.0).abs() < 1e-8,
         "{first} against {theory}"
     );
+}
+
+/// Parity half-period shooting (docs/method.md eq. (9b)) against full-period shooting. The
+/// von Kármán beam is not odd — its membrane force is even in the transverse displacement —
+/// but flipping the transverse dofs and keeping the axial ones is a symmetry, and the first
+/// bending mode's motion is odd in it: `z(T/2) = S z0`. The parity must be found from the
+/// model (the transverse dofs flipped, the axial ones kept), and the backbone shot over half
+/// the period must equal the one shot over the whole period at the same energies, in the
+/// dense formulation and the matrix-free one (whose Floquet products are `S Φ(T/2)`).
+#[test]
+fn parity_half_period_shooting_equals_full_period_shooting() {
+    let beam = VonKarmanBeam {
+        elements: 6,
+        ..Default::default()
+    };
+    let s = beam.build().unwrap();
+    let modes = linear_modes(&s).unwrap();
+    let start = Start::from_linear_mode(&s, &modes, 0, Some(1e-4)).unwrap();
+    let energies = [0.3, 0.9];
+    let run = |half_period: bool, formulation: Formulation| {
+        let mut settings = Settings::default();
+        settings.shooting.half_period = half_period;
+        settings.shooting.formulation = formulation;
+        settings.stability.events = false;
+        settings.limits.frequency_shift_max = 0.05;
+        settings.requests.at_energies = energies.to_vec();
+        let shooting = start.shooting(&s, &settings);
+        assert_eq!(shooting.half_period(), half_period);
+        if half_period {
+            let signs = &shooting.shift().expect("a parity").dof_signs;
+            for (i, sign) in signs.iter().enumerate() {
+                // Dofs u, w, θ per free node: the axial one kept, the transverse ones flipped.
+                let expected = if i % 3 == 0 { 1.0 } else { -1.0 };
+                assert_eq!(*sign, expected, "dof {i}");
+            }
+        }
+        let branch = continue_branch(&s, &start, &settings, |_| ControlFlow::Continue(())).unwrap();
+        energies
+            .iter()
+            .map(|&e| {
+                let point = branch
+                    .points
+                    .iter()
+                    .find(|p| (p.energy / e - 1.0).abs() < 1e-9)
+                    .unwrap_or_else(|| panic!("no point at E = {e}"));
+                assert!(point.floquet.stable, "E = {e}");
+                (point.frequency, point.floquet.max_modulus)
+            })
+            .collect::<Vec<_>>()
+    };
+    for formulation in [Formulation::Dense, Formulation::MatrixFree] {
+        let half = run(true, formulation);
+        let full = run(false, formulation);
+        for ((fh, mh), (ff, mf)) in half.iter().zip(&full) {
+            assert!(
+                (fh / ff - 1.0).abs() < 1e-9,
+                "{formulation:?}: frequency {fh} (half) vs {ff} (full)"
+            );
+            assert!((mh - mf).abs() < 1e-6, "{formulation:?}: |μ| {mh} vs {mf}");
+        }
+        // The backbone hardens between the two energies.
+        assert!(half[1].0 > half[0].0);
+    }
 }

@@ -342,8 +342,11 @@ fn diagonal_by_products(n: usize, mut product: impl FnMut(&[f64], &mut [f64])) -
 pub struct MatrixFreeJacobian {
     flow: Arc<dyn LinearizedFlow>,
     weights: Arc<Vec<f64>>,
-    /// `+1` over half a period (`H = z(T/2) + z0`), `−1` over a full one.
-    sign: f64,
+    /// `−P`'s diagonal (`H = z(horizon) − P z0`): `−1` everywhere over a full period, `+1`
+    /// over half a period of an odd system (`P = −I`), `−s_i` with a parity `S` (eq. (9b)).
+    minus_shift: Vec<f64>,
+    /// Whether the horizon is half the period (`Φ(T) = (P Φ(T/2))²`, `P² = I`).
+    half: bool,
     /// `∂(W H / A)/∂τ`.
     period_column: Vec<f64>,
     /// `∂(phase)/∂u_y` (eq. (75)).
@@ -388,8 +391,9 @@ impl MatrixFreeJacobian {
             let (y, tau, lambda) = (&x[..n2], x[n2], x[n2 + 1]);
             self.flow_product(y, &mut out[..n2]);
             for i in 0..n2 {
-                out[i] +=
-                    self.sign * y[i] + self.period_column[i] * tau + self.null_column[i] * lambda;
+                out[i] += self.minus_shift[i] * y[i]
+                    + self.period_column[i] * tau
+                    + self.null_column[i] * lambda;
             }
             out[n2] = linalg::dot(&self.phase_row, y);
             out[n2 + 1] = linalg::dot(border, &x[..n2 + 1]);
@@ -421,16 +425,18 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
     ) -> Result<Evaluation, ShootingError> {
         let n2 = 2 * self.n;
         let (period, horizon) = self.horizon(u[n2])?;
-        // `H = z(horizon) + sign · z0`: the half-wave symmetry only (a sector shift would
-        // need the permutation in every product; travelling waves are shot dense).
-        let sign = match &self.shift {
-            None => -1.0,
-            Some(shift) if shift.is_half_wave() => 1.0,
-            Some(_) => {
-                return Err(ShootingError::Unsupported(
-                    "travelling waves are shot with the dense formulation; set formulation = \"dense\"".into(),
-                ));
-            }
+        // `H = z(horizon) − P z0` for a diagonal `P` only (a sector shift would need the
+        // permutation in every product; travelling waves are shot dense).
+        let (minus_shift, half) = match &self.shift {
+            None => (vec![-1.0; n2], false),
+            Some(shift) => match shift.diagonal(self.n) {
+                Some(p) => (p.iter().map(|p| -p).collect::<Vec<f64>>(), true),
+                None => {
+                    return Err(ShootingError::Unsupported(
+                        "travelling waves are shot with the dense formulation; set formulation = \"dense\"".into(),
+                    ));
+                }
+            },
         };
         let free = self.matrix_free.as_ref().expect("matrix-free formulation");
         let z0 = free.state(&u[..n2]);
@@ -445,7 +451,9 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         self.first_step = flow.steps.first().copied();
         self.count_integration(&flow);
         let free = self.matrix_free.as_ref().expect("matrix-free formulation");
-        let h: Vec<f64> = (0..n2).map(|i| flow.z[i] + sign * z0[i]).collect();
+        let h: Vec<f64> = (0..n2)
+            .map(|i| flow.z[i] + minus_shift[i] * z0[i])
+            .collect();
         let mut rows = free.unknowns(&h);
         let relative_residual = free.norm(&rows) / free.norm(&u[..n2]).max(f64::MIN_POSITIVE);
         // ∂H/∂τ = (horizon/τ) g(z(horizon)).
@@ -474,7 +482,8 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         let operator = MatrixFreeJacobian {
             flow: linearization,
             weights: free.weights.clone(),
-            sign,
+            minus_shift,
+            half,
             period_column,
             phase_row,
             null_column,
@@ -557,16 +566,23 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             free.metric.clone(),
         )
         .ok_or(ShootingError::Floquet(linalg::LinalgError::NonFinite))?;
-        // Over half a period of an odd system Φ(T) = Φ(T/2)² (docs/method.md §2): the space
-        // is grown with the half-period map, half the products, and its projection squared
-        // (exact on an invariant space; g is an eigenvector of Φ(T/2), at −1).
-        let mut product = |y: &[f64], out: &mut [f64]| operator.flow_product(y, out);
+        // Over half a period Φ(T) = (P Φ(T/2))² (docs/method.md §2, eq. (9b)): the space is
+        // grown with the half-period map, half the products, and its projection squared
+        // (exact on an invariant space; g is an eigenvector of P Φ(T/2), at +1).
+        let mut product = |y: &[f64], out: &mut [f64]| {
+            operator.flow_product(y, out);
+            if operator.half {
+                out.iter_mut()
+                    .zip(&operator.minus_shift)
+                    .for_each(|(o, m)| *o *= -m);
+            }
+        };
         let limit = MAX_ARNOLDI.min(n2);
         while !arnoldi.invariant && arnoldi.steps() < limit {
             arnoldi.step(&mut product, 1e-14, ARNOLDI_INVARIANT);
         }
         let mut projected = arnoldi.hessenberg();
-        if operator.sign > 0.0 {
+        if operator.half {
             projected = linalg::product(projected.as_ref(), projected.as_ref());
         }
         let directions = [
@@ -595,12 +611,12 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         tangent: &[f64],
     ) -> Option<Result<crate::floquet::Floquet, ShootingError>> {
         let cyclic = self.system.cyclic_symmetry()?;
-        // A travelling wave's sector shift (a dense-only formulation) changes the blocks;
-        // the half-wave symmetry squares them, below.
+        // A travelling wave's sector shift (a dense-only formulation) or a parity changes the
+        // blocks; the half-wave symmetry squares them, below.
         if self
             .shift
             .as_ref()
-            .is_some_and(|shift| !shift.source.is_empty())
+            .is_some_and(|shift| !shift.is_half_wave())
         {
             return None;
         }
@@ -671,7 +687,7 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
                 )
             };
             // Over half a period of an odd system, Φ(T) = Φ(T/2)² block by block.
-            if operator.sign > 0.0 {
+            if operator.half {
                 (re, im) = squared(&re, &im);
             }
             blocks.push((re, im));

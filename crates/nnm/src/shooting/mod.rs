@@ -353,7 +353,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
                 !complete_basis
                     || (method == IntegrationMethod::Radau5
                         && system.tangent_pattern().is_some()
-                        && shift.as_ref().is_none_or(|s| s.is_half_wave())),
+                        && shift.as_ref().is_none_or(|s| s.diagonal(0).is_some())),
                 None,
             ),
             Formulation::Dense if !complete_basis => (

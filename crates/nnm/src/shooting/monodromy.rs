@@ -192,9 +192,12 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         (self.r_u < self.r).then(|| (0..self.r_u).chain(self.r..self.r + self.r_u).collect())
     }
 
-    /// Whether the problem is shot over half a period (`z(T/2) = −z0`).
+    /// Whether the problem is shot over half a period (`z(T/2) = −z0`, or `S z0` with a
+    /// parity `S`).
     pub fn half_period(&self) -> bool {
-        self.shift.as_ref().is_some_and(ShiftSymmetry::is_half_wave)
+        self.shift
+            .as_ref()
+            .is_some_and(|shift| shift.diagonal(0).is_some())
     }
 
     /// The spatio-temporal symmetry shot with, if any.

@@ -4,8 +4,12 @@
 //! A motion with `z(t + T/q) = P z(t)` for a signed permutation `P` of the dofs that the
 //! equations of motion commute with is determined by one `q`-th of its period: the shooting
 //! equations become `z(T/q) − P z0 = 0`, the integration is `q` times shorter, and the
-//! monodromy is `Φ(T) = (P⁻¹ Φ(T/q))^q`. Two cases are built here:
+//! monodromy is `Φ(T) = (P⁻¹ Φ(T/q))^q`. Three cases are built here:
 //! - an odd system's half-wave-symmetric motions, `z(T/2) = −z0` (`q = 2`, `P = −I`);
+//! - a system with a parity `S` (a sign per dof, `f(S x) = S f(x)`, `S M = M S`) and a
+//!   motion odd in the flipped dofs: `z(T/2) = S z0` (`q = 2`, `P = S`, eq. (9b)) — a von
+//!   Kármán beam's transverse dofs flip while its axial ones, driven at twice the frequency,
+//!   repeat;
 //! - a travelling wave of a cyclic structure, whose pattern turns by `g = gcd(d, N)` sectors'
 //!   worth of phase every `T/q`, `q = N/g`: `z(T/q) = R^s z0`, `R` the sector shift.
 
@@ -21,6 +25,8 @@ pub struct ShiftSymmetry {
     pub source: Vec<usize>,
     /// `±1`.
     pub sign: f64,
+    /// A sign per dof multiplying `sign` (a parity, [`ShiftSymmetry::parity`]); empty: all `+1`.
+    pub dof_signs: Vec<f64>,
 }
 
 /// Which way a travelling wave's pattern turns.
@@ -59,12 +65,38 @@ impl ShiftSymmetry {
             divisions: 2,
             source: Vec::new(),
             sign: -1.0,
+            dof_signs: Vec::new(),
+        }
+    }
+
+    /// `z(T/2) = S z0` for a parity `S = diag(dof_signs)` (eq. (9b)).
+    pub fn parity(dof_signs: Vec<f64>) -> Self {
+        Self {
+            divisions: 2,
+            source: Vec::new(),
+            sign: 1.0,
+            dof_signs,
         }
     }
 
     /// Whether this is [`ShiftSymmetry::half_wave`].
     pub fn is_half_wave(&self) -> bool {
-        self.divisions == 2 && self.source.is_empty() && self.sign < 0.0
+        self.divisions == 2
+            && self.source.is_empty()
+            && self.sign < 0.0
+            && self.dof_signs.is_empty()
+    }
+
+    /// `P`'s diagonal over a state `[x; v]` of `2n` entries when `P` is a diagonal involution
+    /// (the half-wave symmetry or a parity); `None` for a sector shift.
+    pub fn diagonal(&self, n: usize) -> Option<Vec<f64>> {
+        (self.divisions == 2 && self.source.is_empty())
+            .then(|| (0..2 * n).map(|i| self.sign_of(i % n)).collect())
+    }
+
+    /// The sign `P` gives dof `j`.
+    fn sign_of(&self, j: usize) -> f64 {
+        self.sign * self.dof_signs.get(j).copied().unwrap_or(1.0)
     }
 
     /// The travelling wave with `d` nodal diameters of a structure of `N` sectors (sector-major
@@ -97,6 +129,7 @@ impl ShiftSymmetry {
                     .map(|i| ((i / p + s) % sectors) * p + i % p)
                     .collect(),
                 sign: 1.0,
+                dof_signs: Vec::new(),
             })
             .find(|shift| matches(shift))
     }
@@ -108,7 +141,7 @@ impl ShiftSymmetry {
             .map(|i| {
                 let (half, j) = (i / n, i % n);
                 let from = self.source.get(j).copied().unwrap_or(j);
-                self.sign * z[half * n + from]
+                self.sign_of(from) * z[half * n + from]
             })
             .collect()
     }
@@ -120,7 +153,7 @@ impl ShiftSymmetry {
         for (i, value) in z.iter().enumerate() {
             let (half, j) = (i / n, i % n);
             let from = self.source.get(j).copied().unwrap_or(j);
-            out[half * n + from] = self.sign * value;
+            out[half * n + from] = self.sign_of(from) * value;
         }
         out
     }
@@ -167,5 +200,21 @@ mod tests {
         assert!(shift.is_half_wave());
         assert_eq!(shift.apply(&[1.0, -2.0]), vec![-1.0, 2.0]);
         assert_eq!(shift.apply_inverse(&[1.0, -2.0]), vec![-1.0, 2.0]);
+        assert_eq!(shift.diagonal(1), Some(vec![-1.0, -1.0]));
+    }
+
+    #[test]
+    fn parity_flips_its_dofs_in_both_halves_and_is_its_own_inverse() {
+        let shift = ShiftSymmetry::parity(vec![-1.0, 1.0, -1.0]);
+        assert!(!shift.is_half_wave());
+        let z = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        let pz = shift.apply(&z);
+        assert_eq!(pz, vec![-1.0, 2.0, -3.0, -4.0, 5.0, -6.0]);
+        assert_eq!(shift.apply_inverse(&pz), z.to_vec());
+        assert_eq!(shift.apply(&pz), z.to_vec());
+        assert_eq!(
+            shift.diagonal(3),
+            Some(vec![-1.0, 1.0, -1.0, -1.0, 1.0, -1.0])
+        );
     }
 }

@@ -7,7 +7,7 @@ use crate::linalg;
 use crate::model::MechanicalSystem;
 use crate::modes::{LinearMode, ModesError, StandingWave, linear_modes};
 use crate::settings::Settings;
-use crate::symmetry::{Parity, invariant_class, is_odd, sample_states};
+use crate::symmetry::{Parity, invariant_class, is_odd, parity_of, sample_states};
 
 /// Where a branch starts.
 #[derive(Debug, Clone)]
@@ -343,11 +343,16 @@ impl Start {
             phase,
             amplitude_scale: self.amplitude_scale,
             shift: self.shift.clone().or_else(|| {
-                (self.half_period
+                if !(self.half_period
                     && settings.shooting.half_period
-                    && phase == PhaseCondition::ZeroVelocity
-                    && is_odd(system, self.amplitude_scale))
-                .then(ShiftSymmetry::half_wave)
+                    && phase == PhaseCondition::ZeroVelocity)
+                {
+                    return None;
+                }
+                if is_odd(system, self.amplitude_scale) {
+                    return Some(ShiftSymmetry::half_wave());
+                }
+                parity_of(system, &self.z0, self.amplitude_scale).map(ShiftSymmetry::parity)
             }),
             phase_reference: self.z0.clone(),
             complete_basis: self.complete_basis,
