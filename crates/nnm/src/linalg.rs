@@ -129,11 +129,12 @@ pub struct SparseLuPattern {
 /// Largest sparse LU factorised supernodally ([`SparseLuPattern::new`]).
 pub const SUPERNODAL_UP_TO: usize = 1000;
 
-/// A numeric sparse LU factorisation on a [`SparseLuPattern`].
+/// A numeric sparse LU factorisation on a [`SparseLuPattern`], real or complex (the
+/// transformed stage systems of the collocation integrators, docs/method.md eq. (32f)).
 #[derive(Clone)]
-pub struct SparseLu {
+pub struct SparseLu<T = f64> {
     symbolic: std::sync::Arc<faer::sparse::linalg::lu::SymbolicLu<usize>>,
-    numeric: faer::sparse::linalg::lu::NumericLu<usize, f64>,
+    numeric: faer::sparse::linalg::lu::NumericLu<usize, T>,
 }
 
 /// A work buffer of `req` bytes for faer's stack-based routines.
@@ -174,7 +175,7 @@ impl SparseLuPattern {
     }
 
     /// Factorises the matrix with these values (in the pattern's order); `None` if singular.
-    pub fn factorise(&self, values: &[f64]) -> Option<SparseLu> {
+    pub fn factorise<T: faer::traits::ComplexField>(&self, values: &[T]) -> Option<SparseLu<T>> {
         let structure = faer::sparse::SymbolicSparseColMatRef::new_checked(
             self.n,
             self.n,
@@ -187,7 +188,7 @@ impl SparseLuPattern {
         let params = Default::default();
         let mut buffer = scratch(
             self.symbolic
-                .factorize_numeric_lu_scratch::<f64>(faer::Par::Seq, params),
+                .factorize_numeric_lu_scratch::<T>(faer::Par::Seq, params),
         );
         self.symbolic
             .factorize_numeric_lu(
@@ -205,14 +206,14 @@ impl SparseLuPattern {
     }
 }
 
-impl SparseLu {
+impl<T: faer::traits::ComplexField> SparseLu<T> {
     /// Solves `A X = B` in place for `cols` contiguous column-major columns of `b`.
-    pub fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+    pub fn solve_in_place(&self, b: &mut [T], cols: usize) {
         let n = b.len() / cols.max(1);
         let rhs = faer::MatMut::from_column_major_slice_mut(b, n, cols);
         let mut buffer = scratch(
             self.symbolic
-                .solve_in_place_scratch::<f64>(cols, faer::Par::Seq),
+                .solve_in_place_scratch::<T>(cols, faer::Par::Seq),
         );
         // `numeric` is the output of `factorize_numeric_lu` on this `symbolic` (the pairing
         // `new_unchecked` requires).

@@ -31,13 +31,17 @@
 //! the 38-dof ECL beam this took a branch from 38 s (dense) to 14.5 s. Otherwise it is dense.
 //! When the nonlinearity lives on a few dofs ([`MechanicalSystem::nonlinear_dofs`]), the
 //! stage Jacobian is a low-rank update of its linear part, factorised once per step size
-//! (eq. (32e)): the ECL beam's branch 0.52 s → 0.31 s.
+//! (eq. (32e)): the ECL beam's branch 0.52 s → 0.31 s. When it is everywhere and the model
+//! is large ([`SPLIT_DOFS`]), integrations without sensitivities split the stage system into
+//! systems of the model's size and refine the recorded solves to round-off (eq. (32f),
+//! `split.rs`): 2.5× less memory for the recorded linearisation of a matrix-free integration.
 
 // Coefficients are quoted with all their digits.
 #![allow(clippy::excessive_precision)]
 
 use std::sync::Arc;
 
+use super::split::{SplitLu, SplitStages, StageEigen};
 use super::{
     Flow, IntegrationError, IntegrationStats, Integrator, LinearizedFlow, Steps, Tolerances,
 };
@@ -125,6 +129,14 @@ const MAX_NEWTON: usize = 12;
 /// left for a spurious, aliased one (the trap NLvib's Newmark shooting falls into). At 32 the
 /// motion's content there is negligible.
 const FIRST_STEPS: usize = 16;
+/// Models of more dofs than this split their stage systems (eq. (32f)) in the integrations
+/// that carry no sensitivity block. Why not all: refining every recorded solve to round-off
+/// costs more than the whole factorisation saves. Measured on the von Kármán beam to +8%,
+/// matrix-free: 3,000 dofs 154 s and 523 MB whole, 254 s and 268 MB split; 9,996 dofs 397 s
+/// and 1.62 GB whole, 573 s and 655 MB split. Above 10⁴ dofs the whole factorisations a
+/// matrix-free integration records grow past what a workstation holds (~16 GB at 10⁵ dofs,
+/// ~6.5 GB split).
+pub const SPLIT_DOFS: usize = 10_000;
 /// Adaptive calls served by one error estimate before it is made again.
 const REUSE: usize = 64;
 /// The step count controls the error of the motion's components below this many cycles over
@@ -150,6 +162,10 @@ pub struct GaussLegendre<'a, S: MechanicalSystem + ?Sized> {
     identity: Vec<f64>,
     /// The sparse stage system, when the system gives its tangent on a pattern.
     sparse: Option<SparseStages>,
+    /// The stage system split into systems of the model's size (eq. (32f)), when it is
+    /// sparse and its nonlinearity is not localised: used by integrations that carry no
+    /// sensitivity block (matrix-free shooting records them, eq. (72)).
+    split: Option<SplitStages>,
 }
 
 /// The stage Jacobian `J_ij = M δ_ij + h² Ā_ij K_t(X_i)` as a sparse matrix: its structure
@@ -424,6 +440,8 @@ impl SparseStages {
 #[derive(Default)]
 struct StepCache {
     lu: Option<(StageLu, f64)>,
+    /// Whether the stage systems are split (eq. (32f)) in this integration.
+    split: bool,
     /// The linear part of the stage system at the current step size (low-rank path).
     linear: Option<Arc<LinearStages>>,
     buffers: VariationalBuffers,
@@ -487,7 +505,7 @@ fn variational_step(
             });
         }
     }
-    lu.solve_in_place(rhs, k);
+    lu.solve_exact(rhs, k, tangents);
     for col in 0..k {
         let dw = &rhs[col * m..(col + 1) * m];
         let (px, pv) = phi[col * n2..(col + 1) * n2].split_at_mut(n);
@@ -545,27 +563,40 @@ impl LinearizedFlow for CollocationLinearization {
     }
 }
 
-/// A factorised stage Jacobian.
+/// A factorised stage Jacobian: exact, or the split approximation `P` (eq. (32f)).
 #[derive(Clone)]
 enum StageLu {
     Dense(DenseLu),
     Sparse(SparseLu),
     LowRank(UpdatedStages),
+    Split(Arc<SplitLu>),
 }
 
 impl StageLu {
+    /// `J⁻¹ B` (`P⁻¹ B` for the split approximation): what the stage Newton iteration needs.
     fn solve_in_place(&self, b: &mut [f64], cols: usize) {
         match self {
             StageLu::Dense(lu) => lu.solve_in_place(b, cols),
             StageLu::Sparse(lu) => lu.solve_in_place(b, cols),
             StageLu::LowRank(update) => update.solve_in_place(b, cols),
+            StageLu::Split(split) => split.solve_in_place(b, cols),
+        }
+    }
+
+    /// `J⁻¹ B` to round-off, `J` built from `tangents`: what the variational step needs.
+    fn solve_exact(&self, b: &mut [f64], cols: usize, tangents: &StageTangents) {
+        match self {
+            StageLu::Split(split) => {
+                split.solve_exact(b, cols, tangents);
+            }
+            exact => exact.solve_in_place(b, cols),
         }
     }
 }
 
 /// The tangents `K_t(X_i)` the stage Jacobian was built from: dense `n × n` each, or values on
 /// the system's pattern.
-enum StageTangents {
+pub(super) enum StageTangents {
     Dense(Vec<f64>),
     Sparse(Arc<SparsityPattern>, Vec<Vec<f64>>),
 }
@@ -617,6 +648,27 @@ impl StageTangents {
         }
     }
 
+    /// `out = K_t(X_i) d` in plain sums: for the residuals of refined stage solves
+    /// ([`super::split::SplitLu::solve_exact`]), whose floor need be no lower than the
+    /// backward error of a factorisation of the whole stage system. (Summed accurately, as
+    /// [`Self::apply`] does, these products were a third of a 1,000-element von Kármán
+    /// branch.)
+    pub(super) fn apply_plain(&self, i: usize, d: &[f64], out: &mut [f64]) {
+        match self {
+            StageTangents::Sparse(pattern, values) => {
+                for (r, o) in out.iter_mut().enumerate() {
+                    let span = pattern.row_start[r]..pattern.row_start[r + 1];
+                    *o = pattern.col[span.clone()]
+                        .iter()
+                        .zip(&values[i][span])
+                        .map(|(&c, v)| v * d[c])
+                        .sum();
+                }
+            }
+            StageTangents::Dense(_) => self.apply(i, d, out),
+        }
+    }
+
     /// `out = K_t(X_i) d`.
     fn apply(&self, i: usize, d: &[f64], out: &mut [f64]) {
         let n = d.len();
@@ -659,7 +711,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
     pub fn new(system: &'a S, method: &'static Collocation, tolerances: Tolerances) -> Self {
         let s = method.c.len();
         let a = |i: usize, j: usize| method.a[i][j];
-        let abar = (0..s)
+        let abar: Vec<Vec<f64>> = (0..s)
             .map(|i| {
                 (0..s)
                     .map(|j| (0..s).map(|l| a(i, l) * a(l, j)).sum())
@@ -675,6 +727,11 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             SparseStages::new(pattern, &mass, method.c.len())
                 .map(|stages| stages.with_low_rank(system, method.c.len()))
         });
+        let split = if n > SPLIT_DOFS {
+            Self::split_stages(system, sparse.as_ref(), &mass, &abar)
+        } else {
+            None
+        };
         // The identity block the dense tangents are built from: the dense path only.
         let identity = if sparse.is_some() {
             Vec::new()
@@ -694,7 +751,45 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             mass,
             identity,
             sparse,
+            split,
         }
+    }
+
+    /// The split stage systems (eq. (32f)) of a sparse stage system whose nonlinearity is
+    /// not localised; `None` otherwise.
+    fn split_stages(
+        system: &S,
+        sparse: Option<&SparseStages>,
+        mass: &SparseMatrix,
+        abar: &[Vec<f64>],
+    ) -> Option<SplitStages> {
+        let pattern = system.tangent_pattern()?;
+        if sparse?.low_rank.is_some() {
+            return None;
+        }
+        let single = SparseStages::new(pattern, mass, 1)?;
+        let entries = single.entries.iter().map(|&(_, _, m, p)| (m, p)).collect();
+        let eigen = StageEigen::new(abar)?;
+        Some(SplitStages::new(
+            eigen,
+            single.lu,
+            entries,
+            mass.clone(),
+            abar,
+        ))
+    }
+
+    /// Splits the stage systems whatever the model's size (tests of eq. (32f) on small ones).
+    #[cfg(test)]
+    pub(super) fn with_split_stages(mut self) -> Self {
+        self.split = Self::split_stages(
+            self.form.system(),
+            self.sparse.as_ref(),
+            &self.mass,
+            &self.abar,
+        );
+        assert!(self.split.is_some(), "a sparse model, nonlinear everywhere");
+        self
     }
 
     /// Whether the stage systems are solved as low-rank updates (eq. (32e)).
@@ -725,6 +820,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         states: &[f64],
         h: f64,
         linear: &mut Option<Arc<LinearStages>>,
+        split: bool,
     ) -> Result<(StageLu, StageTangents), IntegrationError> {
         let system = self.form.system();
         let s = self.method.c.len();
@@ -742,8 +838,11 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                     values
                 })
                 .collect();
-            let lu = match &sparse.low_rank {
-                Some(low_rank) => {
+            let lu = match (&sparse.low_rank, self.split.as_ref().filter(|_| split)) {
+                (None, Some(split)) => StageLu::Split(Arc::new(
+                    split.factorise(h, &tangents).ok_or_else(singular)?,
+                )),
+                (Some(low_rank), _) => {
                     if linear.as_ref().is_none_or(|l| l.h != h) {
                         let stages = sparse.linear(low_rank, h, &self.abar);
                         *linear = Some(Arc::new(stages.ok_or_else(singular)?));
@@ -752,7 +851,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                     let update = low_rank.update(system, base, states);
                     StageLu::LowRank(update.ok_or_else(singular)?)
                 }
-                None => {
+                (None, None) => {
                     let values = sparse.values(|bi, bj| h * h * self.abar[bi][bj], &tangents);
                     StageLu::Sparse(sparse.lu.factorise(&values).ok_or_else(singular)?)
                 }
@@ -813,8 +912,12 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             w.copy_within(0..n, i * n);
         }
         if cache.lu.as_ref().is_none_or(|(_, size)| *size != h) {
-            let (lu, _) =
-                self.stage_jacobian(&self.stage_states(x, v, &w, h), h, &mut cache.linear)?;
+            let (lu, _) = self.stage_jacobian(
+                &self.stage_states(x, v, &w, h),
+                h,
+                &mut cache.linear,
+                cache.split,
+            )?;
             stats.tangent_evaluations += s;
             cache.lu = Some((lu, h));
         }
@@ -867,8 +970,12 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                 if size <= 2.0 * cache.floor * scale {
                     break;
                 }
-                let (lu, _) =
-                    self.stage_jacobian(&self.stage_states(x, v, &w, h), h, &mut cache.linear)?;
+                let (lu, _) = self.stage_jacobian(
+                    &self.stage_states(x, v, &w, h),
+                    h,
+                    &mut cache.linear,
+                    cache.split,
+                )?;
                 stats.tangent_evaluations += s;
                 cache.lu = Some((lu, h));
                 fresh = true;
@@ -885,8 +992,12 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         if k > 0 || cache.record.is_some() {
             // The exact J at the converged stages: the variational step's matrix, kept for
             // the next step's Newton, and recorded for later products with Φ.
-            let (lu, tangents) =
-                self.stage_jacobian(&self.stage_states(x, v, &w, h), h, &mut cache.linear)?;
+            let (lu, tangents) = self.stage_jacobian(
+                &self.stage_states(x, v, &w, h),
+                h,
+                &mut cache.linear,
+                cache.split,
+            )?;
             stats.tangent_evaluations += s;
             if k > 0 {
                 variational_step(
@@ -1003,7 +1114,10 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         let mut z = z0.to_vec();
         let mut middle = Vec::new();
         let sizes = vec![duration / steps as f64; steps];
-        let mut cache = StepCache::default();
+        let mut cache = StepCache {
+            split: true,
+            ..StepCache::default()
+        };
         self.march(
             &mut z,
             &sizes,
@@ -1130,6 +1244,7 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
         let mut z = z0.to_vec();
         let mut cache = StepCache {
             record: record.then(Vec::new),
+            split: k == 0,
             ..StepCache::default()
         };
         self.march(
@@ -1227,7 +1342,10 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
             &mut z,
             &sizes,
             (&mut [], 0),
-            &mut StepCache::default(),
+            &mut StepCache {
+                split: true,
+                ..StepCache::default()
+            },
             &mut stats,
             |index, state| {
                 if (index + 1) % per_sample == 0 {

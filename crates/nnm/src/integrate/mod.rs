@@ -12,9 +12,12 @@
 mod gauss;
 mod kernels;
 mod runge_kutta;
+mod split;
 mod tableau;
 
-pub use gauss::{Collocation, CollocationLinearization, GAUSS4, GAUSS6, GaussLegendre, RADAU5};
+pub use gauss::{
+    Collocation, CollocationLinearization, GAUSS4, GAUSS6, GaussLegendre, RADAU5, SPLIT_DOFS,
+};
 pub use runge_kutta::RungeKutta;
 pub use tableau::{DOP853, DOPRI5, ErrorEstimate, Tableau};
 
