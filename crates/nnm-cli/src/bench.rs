@@ -304,6 +304,21 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
             &[("auto", settings)],
         )?);
         sizes.push(1);
+        // The 10⁴-dof von Kármán beam: stiff, nonlinear on every dof, shot over half its
+        // period with its parity (docs/method.md eq. (9b)), stage systems split (eq. (32f)).
+        let plate = VonKarmanBeam {
+            elements: 3333,
+            ..VonKarmanBeam::default()
+        }
+        .build()?;
+        eprintln!("bench: von Karman beam of 3,333 elements");
+        rows.extend(variant_rows(
+            "von Karman 3,333 el. (9,996 dofs) to +8%",
+            &plate,
+            &start_at(&plate, "0", Some(1e-4))?,
+            &[("auto", beam_settings(0.08))],
+        )?);
+        sizes.push(1);
     }
     println!(
         "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>9} {:>7}",

@@ -80,7 +80,8 @@ enum Command {
         #[arg(long)]
         stiff: bool,
         /// Also the large matrix-free cases (the 1,000-element beam, the (1,0) mode of a
-        /// 5,000-sector disk in its 10^4 dofs; about a minute and a half).
+        /// 5,000-sector disk and the first mode of a 3,333-element von Kármán beam, both of
+        /// 10^4 dofs; about ten minutes).
         #[arg(long)]
         large: bool,
     },
