@@ -120,39 +120,30 @@ impl SplitStages {
         }
     }
 
+    /// The values of `M + h² λ K̄` on the pattern (`λ` real or complex).
+    fn system_values<T: SplitScalar>(
+        &self,
+        lambda: T,
+        hh: f64,
+        mean: &impl Fn(usize) -> f64,
+    ) -> Vec<T> {
+        self.entries
+            .iter()
+            .map(|&(m, slot)| T::from(m) + slot.map_or(T::default(), |p| lambda * (hh * mean(p))))
+            .collect()
+    }
+
     /// `P` for step `h` with the stage tangents `tangents` (on the system's pattern): `K̄` is
     /// their mean. `None` if a split system is singular.
     pub(super) fn factorise(&self, h: f64, tangents: &[Vec<f64>]) -> Option<SplitLu> {
         let s = tangents.len();
         let mean = |p: usize| tangents.iter().map(|t| t[p]).sum::<f64>() / s as f64;
         let hh = h * h;
-        let real = self
-            .eigen
-            .real
-            .iter()
-            .map(|&(lambda, ..)| {
-                let values: Vec<f64> = self
-                    .entries
-                    .iter()
-                    .map(|&(m, slot)| m + slot.map_or(0.0, |p| hh * lambda * mean(p)))
-                    .collect();
-                self.lu.factorise(&values)
-            })
+        let real = (self.eigen.real.iter())
+            .map(|&(lambda, ..)| self.lu.factorise(&self.system_values(lambda, hh, &mean)))
             .collect::<Option<Vec<_>>>()?;
-        let complex = self
-            .eigen
-            .complex
-            .iter()
-            .map(|&(lambda, ..)| {
-                let values: Vec<c64> = self
-                    .entries
-                    .iter()
-                    .map(|&(m, slot)| {
-                        c64::new(m, 0.0) + slot.map_or(c64::ZERO, |p| lambda * (hh * mean(p)))
-                    })
-                    .collect();
-                self.lu.factorise(&values)
-            })
+        let complex = (self.eigen.complex.iter())
+            .map(|&(lambda, ..)| self.lu.factorise(&self.system_values(lambda, hh, &mean)))
             .collect::<Option<Vec<_>>>()?;
         Some(SplitLu {
             eigen: self.eigen.clone(),
@@ -161,6 +152,62 @@ impl SplitStages {
             mass: self.mass.clone(),
             hh_abar: self.abar.iter().map(|a| hh * a).collect(),
         })
+    }
+}
+
+/// The scalars of the split systems: `f64` for a real eigenvalue of `Ā`, `c64` for a pair.
+trait SplitScalar:
+    faer::traits::ComplexField
+    + Copy
+    + Default
+    + From<f64>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Mul<f64, Output = Self>
+    + std::ops::AddAssign
+{
+    fn real_part(self) -> f64;
+}
+
+impl SplitScalar for f64 {
+    fn real_part(self) -> f64 {
+        self
+    }
+}
+
+impl SplitScalar for c64 {
+    fn real_part(self) -> f64 {
+        self.re
+    }
+}
+
+/// One split system's share of `P⁻¹ b` added to `out` (`cols` columns of `s n`): `u = Σ_i
+/// T⁻¹_ji b_i`, `(M + h² λ_j K̄) y = u`, `out_i += weight · Re(T_ij y)`.
+fn split_solve<T: SplitScalar>(
+    lu: &SparseLu<T>,
+    (t, tinv): (&[T], &[T]),
+    b: &[f64],
+    out: &mut [f64],
+    (n, cols): (usize, usize),
+    weight: f64,
+) {
+    let m = b.len() / cols.max(1);
+    let mut u = vec![T::default(); n * cols];
+    for col in 0..cols {
+        let uc = &mut u[col * n..(col + 1) * n];
+        for (i, &w) in tinv.iter().enumerate() {
+            let bi = &b[col * m + i * n..col * m + (i + 1) * n];
+            uc.iter_mut().zip(bi).for_each(|(u, &b)| *u += w * b);
+        }
+    }
+    lu.solve_in_place(&mut u, cols);
+    for col in 0..cols {
+        let uc = &u[col * n..(col + 1) * n];
+        for (i, &w) in t.iter().enumerate() {
+            let oi = &mut out[col * m + i * n..col * m + (i + 1) * n];
+            oi.iter_mut()
+                .zip(uc)
+                .for_each(|(o, &u)| *o += weight * (w * u).real_part());
+        }
     }
 }
 
@@ -183,52 +230,12 @@ impl SplitLu {
         let m = b.len() / cols.max(1);
         let n = m / s;
         let mut out = vec![0.0; b.len()];
-        for (lambda_lu, (_, t, tinv)) in self.real.iter().zip(&self.eigen.real) {
-            let mut u = vec![0.0; n * cols];
-            for col in 0..cols {
-                let bc = &b[col * m..(col + 1) * m];
-                let uc = &mut u[col * n..(col + 1) * n];
-                for (i, &w) in tinv.iter().enumerate() {
-                    uc.iter_mut()
-                        .zip(&bc[i * n..(i + 1) * n])
-                        .for_each(|(u, b)| *u += w * b);
-                }
-            }
-            lambda_lu.solve_in_place(&mut u, cols);
-            for col in 0..cols {
-                let uc = &u[col * n..(col + 1) * n];
-                let oc = &mut out[col * m..(col + 1) * m];
-                for (i, &w) in t.iter().enumerate() {
-                    oc[i * n..(i + 1) * n]
-                        .iter_mut()
-                        .zip(uc)
-                        .for_each(|(o, u)| *o += w * u);
-                }
-            }
+        for (lu, (_, t, tinv)) in self.real.iter().zip(&self.eigen.real) {
+            split_solve(lu, (t, tinv), b, &mut out, (n, cols), 1.0);
         }
-        for (lambda_lu, (_, t, tinv)) in self.complex.iter().zip(&self.eigen.complex) {
-            let mut u = vec![c64::ZERO; n * cols];
-            for col in 0..cols {
-                let bc = &b[col * m..(col + 1) * m];
-                let uc = &mut u[col * n..(col + 1) * n];
-                for (i, &w) in tinv.iter().enumerate() {
-                    uc.iter_mut()
-                        .zip(&bc[i * n..(i + 1) * n])
-                        .for_each(|(u, &b)| *u += w * b);
-                }
-            }
-            lambda_lu.solve_in_place(&mut u, cols);
-            // The conjugate partner contributes the conjugate: together, twice the real part.
-            for col in 0..cols {
-                let uc = &u[col * n..(col + 1) * n];
-                let oc = &mut out[col * m..(col + 1) * m];
-                for (i, &w) in t.iter().enumerate() {
-                    oc[i * n..(i + 1) * n]
-                        .iter_mut()
-                        .zip(uc)
-                        .for_each(|(o, u)| *o += 2.0 * (w * u).re);
-                }
-            }
+        // A conjugate pair's partner contributes the conjugate: together, twice the real part.
+        for (lu, (_, t, tinv)) in self.complex.iter().zip(&self.eigen.complex) {
+            split_solve(lu, (t, tinv), b, &mut out, (n, cols), 2.0);
         }
         b.copy_from_slice(&out);
     }

@@ -479,6 +479,20 @@ fn sampled_flow_equals_the_divisions_integrated_one_by_one() {
     }
 }
 
+/// Asserts that `x` equals `y` to 1e-10 of `y`'s largest entry: two exact stage solvers
+/// (whole, low-rank, split) differ by the stage systems' round-off.
+fn assert_close_to_round_off(x: &[f64], y: &[f64], what: &str) {
+    let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let error = x
+        .iter()
+        .zip(y)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    assert!(
+        error <= 1e-10 * scale,
+        "{what} off by {error:e} of {scale:e}"
+    );
+}
+
 /// A system with its nonlinear dofs withheld: the stage systems are then factorised whole
 /// every step, as for a nonlinearity spread over the mesh.
 struct Spread<'a>(&'a dyn MechanicalSystem);
@@ -559,16 +573,7 @@ fn low_rank_stage_solves_equal_the_whole_factorisation() {
             // Both are exact to the stage systems' round-off, whose condition grows like
             // (ω_max h)²: measured differences 3e-13 to 1e-11 of the largest entry.
             let close = |x: &[f64], y: &[f64], what: &str| {
-                let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                let error = x
-                    .iter()
-                    .zip(y)
-                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-                assert!(
-                    error <= 1e-10 * scale,
-                    "{}: {what} off by {error:e} of {scale:e}",
-                    method.name
-                );
+                assert_close_to_round_off(x, y, &format!("{}: {what}", method.name))
             };
             close(&a.z, &b.z, "motion");
             close(&a.sensitivity, &b.sensitivity, "sensitivities");
@@ -627,16 +632,7 @@ fn split_stage_solves_equal_the_whole_factorisation() {
             .flow_linearized(&z0, 0.01, Steps::Replay(&steps))
             .unwrap();
         let close = |x: &[f64], y: &[f64], what: &str| {
-            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let error = x
-                .iter()
-                .zip(y)
-                .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-            assert!(
-                error <= 1e-10 * scale,
-                "{}: {what} off by {error:e} of {scale:e}",
-                method.name
-            );
+            assert_close_to_round_off(x, y, &format!("{}: {what}", method.name))
         };
         close(&split.z, &whole.z, "motion");
         let mut product = vec![0.0; n2 * k];
