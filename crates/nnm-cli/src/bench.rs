@@ -24,6 +24,8 @@ struct Row {
     steps: usize,
     rhs: usize,
     tangents: usize,
+    /// Stage-system factorisations (implicit integrators).
+    factorisations: usize,
     /// Monodromy–vector products (matrix-free formulation).
     products: usize,
 }
@@ -87,6 +89,7 @@ fn variant_rows(
                 steps: s.shooting.integration.steps,
                 rhs: s.shooting.integration.rhs_evaluations,
                 tangents: s.shooting.integration.tangent_evaluations,
+                factorisations: s.shooting.integration.factorisations,
                 products: s.shooting.krylov_products,
             })
         })
@@ -127,6 +130,7 @@ fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<
                 steps: s.integration.steps / repeat,
                 rhs: s.integration.rhs_evaluations / repeat,
                 tangents: s.integration.tangent_evaluations / repeat,
+                factorisations: s.integration.factorisations / repeat,
                 products: 0,
             })
         })
@@ -321,7 +325,7 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
         sizes.push(1);
     }
     println!(
-        "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>9} {:>7}",
+        "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>8} {:>9} {:>7}",
         "case",
         "jacobian",
         "time_s",
@@ -331,6 +335,7 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
         "steps",
         "rhs_evals",
         "tangents",
+        "factor.",
         "products",
         "ratio"
     );
@@ -341,7 +346,7 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
         let base = group[0].seconds;
         for r in group {
             println!(
-                "{:<38} {:<12} {:>10.4} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>9} {:>7.2}",
+                "{:<38} {:<12} {:>10.4} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>8} {:>9} {:>7.2}",
                 r.case,
                 r.method,
                 r.seconds,
@@ -351,6 +356,7 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
                 r.steps,
                 r.rhs,
                 r.tangents,
+                r.factorisations,
                 r.products,
                 r.seconds / base
             );

@@ -876,6 +876,7 @@ fn branch_dict<'py>(
     stats.set_item("location_steps", s.location_steps)?;
     stats.set_item("integrations", s.shooting.integrations)?;
     stats.set_item("steps", s.shooting.integration.steps)?;
+    stats.set_item("factorisations", s.shooting.integration.factorisations)?;
     out.set_item("stats", stats)?;
     Ok(())
 }

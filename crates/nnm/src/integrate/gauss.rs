@@ -919,6 +919,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                 cache.split,
             )?;
             stats.tangent_evaluations += s;
+            stats.factorisations += 1;
             cache.lu = Some((lu, h));
         }
         let mut fresh = false;
@@ -977,6 +978,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                     cache.split,
                 )?;
                 stats.tangent_evaluations += s;
+                stats.factorisations += 1;
                 cache.lu = Some((lu, h));
                 fresh = true;
                 previous = f64::INFINITY;
@@ -999,6 +1001,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                 cache.split,
             )?;
             stats.tangent_evaluations += s;
+            stats.factorisations += 1;
             if k > 0 {
                 variational_step(
                     self.method,

@@ -306,6 +306,9 @@ pub struct IntegrationStats {
     pub rhs_evaluations: usize,
     /// Evaluations of the tangent `A(x)` applied to a block of directions.
     pub tangent_evaluations: usize,
+    /// Factorisations of an implicit method's stage system (whole, its low-rank update, or
+    /// its split systems together counting one).
+    pub factorisations: usize,
 }
 
 impl std::ops::AddAssign for IntegrationStats {
@@ -315,6 +318,7 @@ impl std::ops::AddAssign for IntegrationStats {
         self.variational_rejections += o.variational_rejections;
         self.rhs_evaluations += o.rhs_evaluations;
         self.tangent_evaluations += o.tangent_evaluations;
+        self.factorisations += o.factorisations;
     }
 }
 
