@@ -1014,6 +1014,9 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                 );
             }
             if let Some(record) = &mut cache.record {
+                // A copy, not a shared pointer: faer's factors carry the spare capacity of
+                // their growth, and the copy holds only the entries. Sharing them instead
+                // took the 200-element von Kármán branch from 122 to 174 MB, same time.
                 record.push(RecordedStep {
                     h,
                     lu: lu.clone(),
