@@ -1,6 +1,10 @@
-//! Python values into the TOML values of a job file, so that keyword arguments go through
-//! the job file's own parser (same keys, defaults and messages).
+//! Python values into the library's inputs: keyword arguments into the TOML values of a job
+//! file, so that they go through the job file's own parser (same keys, defaults and messages),
+//! and the matrices and nonlinear elements of a general model.
 
+use nnm::model::{Matrix, PolynomialTensor, SparseMatrix};
+use nnm_io::job::Element;
+use numpy::{PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString, PyTuple};
@@ -58,9 +62,93 @@ pub fn to_toml(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
     )))
 }
 
-/// A library error's one-line message as a `ValueError`.
-pub fn value_error(e: impl std::fmt::Display) -> PyErr {
-    PyValueError::new_err(e.to_string())
+/// One matrix as the Python layer hands it over: a 2-D float64 array, or a sparse matrix's
+/// triplets `(rows, cols, row_indices, col_indices, values)` (duplicates are summed).
+pub fn matrix_from_py(name: &'static str, value: &Bound<'_, PyAny>) -> PyResult<Matrix> {
+    if let Ok(tuple) = value.cast::<PyTuple>() {
+        let (rows, cols, i, j, v): (
+            usize,
+            usize,
+            PyReadonlyArray1<'_, i64>,
+            PyReadonlyArray1<'_, i64>,
+            PyReadonlyArray1<'_, f64>,
+        ) = tuple.extract()?;
+        if rows != cols {
+            // As for a Matrix Market file that is not square.
+            return Err(PyValueError::new_err(format!(
+                "{name} matrix is {rows}x{cols}, not square"
+            )));
+        }
+        let (i, j, v) = (i.as_slice()?, j.as_slice()?, v.as_slice()?);
+        let triplets: Vec<(usize, usize, f64)> = i
+            .iter()
+            .zip(j)
+            .zip(v)
+            .map(|((&i, &j), &v)| (dof_index(i), dof_index(j), v))
+            .collect();
+        let sparse = SparseMatrix::from_triplets(rows, &triplets)
+            .map_err(|m| PyValueError::new_err(format!("{name} matrix {m}")))?;
+        return Ok(Matrix::Sparse(sparse));
+    }
+    let array: PyReadonlyArray2<'_, f64> = value.extract()?;
+    let a = array.as_array();
+    let (rows, cols) = a.dim();
+    Ok(Matrix::from_fn(rows, cols, |i, j| a[(i, j)]))
+}
+
+/// A 0-based index from Python; a negative one becomes an index out of every range, which the
+/// library's own checks then refuse by name.
+pub fn dof_index(k: i64) -> usize {
+    usize::try_from(k).unwrap_or(usize::MAX)
+}
+
+/// One nonlinear element as the Python layer hands it over:
+/// `("cubic" | "polynomial", dofs, coefficient, exponent)` or
+/// `("tensor", quadratic_subs, quadratic_values, cubic_subs, cubic_values)` (subs `m × 3` and
+/// `m × 4`, 0-based). Messages are the job file's for the same element.
+pub fn element_from_py(index: usize, n: usize, value: &Bound<'_, PyAny>) -> PyResult<Element> {
+    let tuple = value.cast::<PyTuple>()?;
+    let kind: String = tuple.get_item(0)?.extract()?;
+    let element_error =
+        |m: String| PyValueError::new_err(format!("nonlinear element {}: {m}", index + 1));
+    if kind != "tensor" {
+        let (_, dofs, coefficient, exponent): (String, Vec<usize>, f64, Option<i64>) =
+            tuple.extract()?;
+        return nnm_io::job::spring(&kind, Some(&dofs), Some(coefficient), exponent)
+            .map(Element::Spring)
+            .map_err(element_error);
+    }
+    let (_, q_subs, q_vals, c_subs, c_vals): (
+        String,
+        PyReadonlyArray2<'_, i64>,
+        PyReadonlyArray1<'_, f64>,
+        PyReadonlyArray2<'_, i64>,
+        PyReadonlyArray1<'_, f64>,
+    ) = tuple.extract()?;
+    let (q, c) = (q_subs.as_array(), c_subs.as_array());
+    let quadratic = q
+        .rows()
+        .into_iter()
+        .zip(q_vals.as_array())
+        .map(|(r, &v)| (dof_index(r[0]), dof_index(r[1]), dof_index(r[2]), v))
+        .collect();
+    let cubic = c
+        .rows()
+        .into_iter()
+        .zip(c_vals.as_array())
+        .map(|(r, &v)| {
+            (
+                dof_index(r[0]),
+                dof_index(r[1]),
+                dof_index(r[2]),
+                dof_index(r[3]),
+                v,
+            )
+        })
+        .collect();
+    PolynomialTensor::new(n, quadratic, cubic)
+        .map(Element::Tensor)
+        .map_err(|e| element_error(e.describe(0)))
 }
 
 #[cfg(test)]

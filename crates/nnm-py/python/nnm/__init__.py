@@ -22,14 +22,13 @@ Figures: :mod:`nnm.plot`. Errors: ``ValueError``/``TypeError`` for bad input,
 points so far.
 """
 
-from ._branch import Branch, Event, Motion, backbone, switch
+from ._branch import Branch, Event, Motion, switch
+from ._elements import Cubic, Polynomial, Tensor
 from ._errors import ContinuationError, NumericalError
 from ._model import (
-    Cubic,
     Model,
     Modes,
-    Polynomial,
-    Tensor,
+    backbone,
     bladed_disk,
     cantilever_beam,
     duffing,

@@ -1,4 +1,6 @@
-"""Following a branch of nonlinear normal modes, and what it returns."""
+"""A computed branch of nonlinear normal modes (:class:`Branch`, its :class:`Event` and
+:class:`Motion`), how a native continuation becomes one, and switching at its events.
+:func:`nnm.backbone` (with the models, in ``_model``) starts a branch from a linear mode."""
 
 from __future__ import annotations
 
@@ -8,11 +10,13 @@ from typing import TYPE_CHECKING, Any, Callable, NamedTuple
 import numpy as np
 
 from ._errors import ContinuationError
-from ._model import Model, _label, _parse_label
+from ._labels import _parse_label
 
 if TYPE_CHECKING:
     import matplotlib.axes
     import pandas
+
+    from ._model import Model
 
 
 @dataclass(frozen=True)
@@ -254,70 +258,6 @@ def _tqdm_callback(show: bool | None, description: str) -> tuple[Callable[..., A
         bar.update(1)
 
     return update, bar
-
-
-def backbone(
-    model: Model,
-    mode: int | str | tuple[int, int] | None = None,
-    *,
-    pattern: str | None = None,
-    energy_max: float | None = None,
-    frequency_shift_max: float | None = None,
-    max_points: int | None = None,
-    branch: str | None = None,
-    progress: bool | None = None,
-    callback: Callable[[int, float, float, bool], Any] | None = None,
-    raise_on_failure: bool = True,
-    **settings: Any,
-) -> Branch:
-    """Follows the NNM branch that starts from a linear mode of ``model``.
-
-    ``mode`` is an index into :func:`nnm.modes` (ascending frequency), or on cyclic models a
-    label ``(n, d)`` or ``"n,d"`` (``pattern="sin"`` for the other standing wave of a pair,
-    ``"travelling"`` / ``"travelling-backward"`` for its travelling waves, docs/method.md §17).
-    The branch stops at ``energy_max``, at ``frequency_shift_max`` (``|ω/ω0 - 1|``; the last
-    point lies on either limit to 1e-10) or after ``max_points``; at least one is required.
-    Other keywords are the job file's settings with the same names, meanings and defaults
-    (``tolerance``, ``initial_step``, ``min_step``, ``max_step``, ``max_iterations``,
-    ``target_iterations``, ``max_turn_angle``, ``energy_start``, ``symmetry``, ``phase``,
-    ``jacobian``, ``half_period``, ``integrator``, ``integration_factor``,
-    ``stability_tolerance``, ``events``, and ``at_energies`` / ``at_frequencies``: lists of
-    values (rad/s for frequencies) that get points exactly on them, ``label`` says which;
-    README "Job files"). ``branch=NAME`` instead runs a ``[[branch]]`` of the job file the
-    model came from, with its settings (from ``mode`` instead of the branch's own when both
-    are given: what a sweep does on a mistuned disk).
-
-    The computation runs without the GIL. Ctrl-C stops it between points, raising
-    ``KeyboardInterrupt`` whose ``branch`` attribute holds the points computed so far (as does
-    an exception raised by the callback); ``callback(index, energy, frequency, stable)`` is called after
-    each point and stops the branch by returning ``False``; with tqdm installed a progress
-    bar shows once a run takes more than a second (``progress=True``: at once, ``False``:
-    never).
-
-    Raises ``ValueError``/``TypeError`` for bad input (an unknown mode or setting, a value out
-    of range), with the message ``nnm run`` gives. A branch that cannot be followed to its
-    limit (the first point does not converge, or a step fails at the minimum step size)
-    raises :class:`nnm.ContinuationError` with the points computed so far on its ``branch``;
-    with ``raise_on_failure=False`` that branch is returned instead (see ``Branch.stop``).
-    """
-    if not isinstance(model, Model):
-        raise TypeError(f"model must be an nnm.Model, got {type(model).__name__}")
-    if mode is None and branch is None:
-        raise TypeError('backbone() needs `mode` (an index, (n, d) or "n,d") or `branch` (a job file\'s)')
-    for key in ("name", "start"):
-        if key in settings:
-            raise TypeError(f"backbone() got an unexpected keyword argument '{key}'")
-    options = _options(energy_max, frequency_shift_max, max_points, settings)
-    if pattern is not None:
-        options["pattern"] = pattern
-    if isinstance(mode, tuple):
-        mode = _label(mode)
-    described = branch if branch is not None else mode
-
-    def call(observe: Any) -> dict[str, Any]:
-        return model._native.backbone(mode, options, branch, observe)
-
-    return _follow(model, call, f"mode {described}", progress, callback, raise_on_failure)
 
 
 def _follow(

@@ -1,4 +1,5 @@
-"""Models: general ones from M, K and nonlinear elements, job files, and the built-in families.
+"""Models: general ones from M, K and nonlinear elements, job files, and the built-in families;
+their linear modes and the branches that start from them.
 
 Everything a model may be is checked by the library with the job file's rules, so a model
 refused here is refused by ``nnm run`` with the same message (without the file's name).
@@ -9,131 +10,17 @@ from __future__ import annotations
 import operator
 import os
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 import numpy as np
 
 from . import _nnm
+from ._branch import Branch, _follow, _options
+from ._elements import Cubic, Polynomial, Tensor, _dofs, _matrix
+from ._labels import _label, _parse_label
 
 if TYPE_CHECKING:
     import pandas
-
-    from ._branch import Branch
-
-
-def _dofs(dofs: int | Sequence[int]) -> list[int]:
-    """0-based dof numbers: an int or a sequence of ints, none negative."""
-    if isinstance(dofs, (int, np.integer)):
-        dofs = [int(dofs)]
-    out = []
-    for d in dofs:
-        i = operator.index(d)  # TypeError for floats and strings, as for any index
-        if i < 0:
-            raise ValueError(f"dofs are 0-based and non-negative, got {i}")
-        out.append(i)
-    return out
-
-
-@dataclass(frozen=True)
-class Cubic:
-    """A cubic spring: force ``c (x_i - x_j)^3`` on dof ``i`` and the opposite on dof ``j``.
-
-    ``dofs`` is ``[i]`` (to ground) or ``[i, j]`` (between two dofs), 0-based; an int ``i``
-    means ``[i]``. The job file's ``type = "cubic"``.
-    """
-
-    dofs: int | Sequence[int]
-    coefficient: float
-
-    def _spec(self) -> tuple:
-        return ("cubic", _dofs(self.dofs), float(self.coefficient), None)
-
-
-@dataclass(frozen=True)
-class Polynomial:
-    """A polynomial spring ``c (x_i - x_j)^p``, any exponent ``p`` from 2 to 31 (odd powers
-    keep the sign of the stretch, as a cubic's). The job file's ``type = "polynomial"``."""
-
-    dofs: int | Sequence[int]
-    coefficient: float
-    exponent: int
-
-    def _spec(self) -> tuple:
-        return ("polynomial", _dofs(self.dofs), float(self.coefficient), operator.index(self.exponent))
-
-
-def _terms(name: str, terms: Any, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(subs, values)`` of a tensor's terms as an ``m × order`` int64 array and ``m``
-    float64 values. ``subs`` is one row per term (``i, j, k`` for ``f_i += c x_j x_k``), or
-    scipy's form, a tuple of ``order`` index arrays."""
-    if terms is None:
-        return np.zeros((0, order), dtype=np.int64), np.zeros(0)
-    subs, values = terms
-    if isinstance(subs, tuple):
-        subs = np.column_stack([np.asarray(s) for s in subs]) if subs else np.zeros((0, order))
-    subs = np.asarray(subs)
-    values = np.asarray(values, dtype=np.float64).reshape(-1)
-    if subs.size == 0:
-        subs = subs.reshape(0, order)
-    if subs.ndim != 2 or subs.shape[1] != order:
-        raise ValueError(
-            f"{name} terms need indices of shape (m, {order}) (one row per term) or a tuple of "
-            f"{order} index arrays, got shape {subs.shape}"
-        )
-    if subs.shape[0] != values.shape[0]:
-        raise ValueError(f"{name} terms: {subs.shape[0]} index rows but {values.shape[0]} values")
-    if subs.dtype.kind not in "iu":
-        raise TypeError(f"{name} term indices must be integers, got dtype {subs.dtype}")
-    if (subs < 0).any():
-        raise ValueError(f"{name} term indices are 0-based and non-negative")
-    return np.ascontiguousarray(subs, dtype=np.int64), np.ascontiguousarray(values)
-
-
-@dataclass(frozen=True)
-class Tensor:
-    """Polynomial forces term by term, as finite-element codes export them:
-    quadratic terms ``f_i += c x_j x_k`` and cubic terms ``f_i += c x_j x_k x_l``.
-
-    ``quadratic=(subs, values)`` with ``subs`` an ``m × 3`` integer array (rows ``i, j, k``,
-    0-based) or a tuple of three index arrays (scipy's COO form); ``cubic`` likewise with four
-    indices. Repeated positions add up. The force must derive from a potential (the
-    coefficients averaged over the trailing indices symmetric in all indices,
-    docs/method.md eq. (59)), or the model is refused naming the two coefficients that differ.
-    The job file's ``type = "tensor"`` (whose files count from 1).
-    """
-
-    quadratic: Any = None
-    cubic: Any = None
-
-    def _spec(self) -> tuple:
-        if self.quadratic is None and self.cubic is None:
-            raise ValueError("a tensor element needs `quadratic` and/or `cubic` terms")
-        q = _terms("quadratic", self.quadratic, 3)
-        c = _terms("cubic", self.cubic, 4)
-        return ("tensor", q[0], q[1], c[0], c[1])
-
-
-def _matrix(name: str, a: Any) -> Any:
-    """A matrix as the native module takes it: a float64 2-D array, or for a scipy.sparse
-    matrix its COO triplets (never a dense copy)."""
-    if type(a).__module__.startswith("scipy.sparse"):
-        coo = a.tocoo()
-        if np.iscomplexobj(coo.data):
-            raise TypeError(f"{name} matrix must be real, got dtype {coo.data.dtype}")
-        rows, cols = coo.shape
-        return (
-            int(rows),
-            int(cols),
-            np.ascontiguousarray(coo.row, dtype=np.int64),
-            np.ascontiguousarray(coo.col, dtype=np.int64),
-            np.ascontiguousarray(coo.data, dtype=np.float64),
-        )
-    array = np.asarray(a)
-    if array.dtype.kind not in "biuf":
-        raise TypeError(f"{name} matrix must be real numbers, got dtype {array.dtype}")
-    if array.ndim != 2:
-        raise ValueError(f"{name} matrix must be 2-D, got shape {array.shape}")
-    return np.ascontiguousarray(array, dtype=np.float64)
 
 
 class Model:
@@ -252,8 +139,6 @@ class Model:
 
     def backbone(self, mode: Any = None, **kwargs: Any) -> "Branch":
         """Follows a branch of this model (see :func:`nnm.backbone`)."""
-        from ._branch import backbone
-
         return backbone(self, mode, **kwargs)
 
     def __repr__(self) -> str:
@@ -305,21 +190,6 @@ class Modes:
         )
 
 
-def _parse_label(text: str | None) -> tuple[int, int] | None:
-    """``"n,d"`` (as the library writes labels) as ``(n, d)``."""
-    if text is None:
-        return None
-    n, d = text.split(",")
-    return int(n), int(d)
-
-
-def _label(label: Any) -> str:
-    if isinstance(label, tuple):
-        n, d = label
-        return f"{operator.index(n)},{operator.index(d)}"
-    return str(label)
-
-
 def modes(model: Model) -> Modes:
     """Linear modes of ``model`` in ascending frequency, as ``nnm modes`` lists them (all of
     them; the 20 lowest for sparse models above 2,000 dofs). Every mode is checked against
@@ -327,6 +197,70 @@ def modes(model: Model) -> Modes:
     raw = model._native.modes()
     labels = [_parse_label(s) for s in raw["label"]]
     return Modes(raw["frequency"], raw["shapes"], raw["rigid"], labels, raw["pattern"])
+
+
+def backbone(
+    model: Model,
+    mode: int | str | tuple[int, int] | None = None,
+    *,
+    pattern: str | None = None,
+    energy_max: float | None = None,
+    frequency_shift_max: float | None = None,
+    max_points: int | None = None,
+    branch: str | None = None,
+    progress: bool | None = None,
+    callback: Callable[[int, float, float, bool], Any] | None = None,
+    raise_on_failure: bool = True,
+    **settings: Any,
+) -> Branch:
+    """Follows the NNM branch that starts from a linear mode of ``model``.
+
+    ``mode`` is an index into :func:`nnm.modes` (ascending frequency), or on cyclic models a
+    label ``(n, d)`` or ``"n,d"`` (``pattern="sin"`` for the other standing wave of a pair,
+    ``"travelling"`` / ``"travelling-backward"`` for its travelling waves, docs/method.md §17).
+    The branch stops at ``energy_max``, at ``frequency_shift_max`` (``|ω/ω0 - 1|``; the last
+    point lies on either limit to 1e-10) or after ``max_points``; at least one is required.
+    Other keywords are the job file's settings with the same names, meanings and defaults
+    (``tolerance``, ``initial_step``, ``min_step``, ``max_step``, ``max_iterations``,
+    ``target_iterations``, ``max_turn_angle``, ``energy_start``, ``symmetry``, ``phase``,
+    ``jacobian``, ``half_period``, ``integrator``, ``integration_factor``,
+    ``stability_tolerance``, ``events``, and ``at_energies`` / ``at_frequencies``: lists of
+    values (rad/s for frequencies) that get points exactly on them, ``label`` says which;
+    README "Job files"). ``branch=NAME`` instead runs a ``[[branch]]`` of the job file the
+    model came from, with its settings (from ``mode`` instead of the branch's own when both
+    are given: what a sweep does on a mistuned disk).
+
+    The computation runs without the GIL. Ctrl-C stops it between points, raising
+    ``KeyboardInterrupt`` whose ``branch`` attribute holds the points computed so far (as does
+    an exception raised by the callback); ``callback(index, energy, frequency, stable)`` is called after
+    each point and stops the branch by returning ``False``; with tqdm installed a progress
+    bar shows once a run takes more than a second (``progress=True``: at once, ``False``:
+    never).
+
+    Raises ``ValueError``/``TypeError`` for bad input (an unknown mode or setting, a value out
+    of range), with the message ``nnm run`` gives. A branch that cannot be followed to its
+    limit (the first point does not converge, or a step fails at the minimum step size)
+    raises :class:`nnm.ContinuationError` with the points computed so far on its ``branch``;
+    with ``raise_on_failure=False`` that branch is returned instead (see ``Branch.stop``).
+    """
+    if not isinstance(model, Model):
+        raise TypeError(f"model must be an nnm.Model, got {type(model).__name__}")
+    if mode is None and branch is None:
+        raise TypeError('backbone() needs `mode` (an index, (n, d) or "n,d") or `branch` (a job file\'s)')
+    for key in ("name", "start"):
+        if key in settings:
+            raise TypeError(f"backbone() got an unexpected keyword argument '{key}'")
+    options = _options(energy_max, frequency_shift_max, max_points, settings)
+    if pattern is not None:
+        options["pattern"] = pattern
+    if isinstance(mode, tuple):
+        mode = _label(mode)
+    described = branch if branch is not None else mode
+
+    def call(observe: Any) -> dict[str, Any]:
+        return model._native.backbone(mode, options, branch, observe)
+
+    return _follow(model, call, f"mode {described}", progress, callback, raise_on_failure)
 
 
 # The built-in families: the job file's `family = "..."` with its keys as keyword arguments and

@@ -51,8 +51,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from ._branch import backbone
-from ._model import Model, modes
+from ._model import Model, backbone, modes
 
 if TYPE_CHECKING:
     import distributed

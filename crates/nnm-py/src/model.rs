@@ -1,0 +1,476 @@
+//! The native model class `nnm._nnm.NativeModel` (built-in families, job files, general
+//! models; modes, branches, switches, motions) and the opaque `NativeBranch` a switch starts
+//! from. Its methods read their input through `convert`, run the library without the GIL
+//! (through `errors::no_panic`), and hand their results to `results`.
+
+use std::path::PathBuf;
+
+use nnm::bifurcation::{Event, SwitchError};
+use nnm::model::{CyclicSymmetry, Matrix, Structure};
+use nnm::modes::{LinearMode, linear_modes};
+use nnm::{Branch, MechanicalSystem, Start, StopReason};
+use nnm_io::job::{BranchBody, BranchJob};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyReadonlyArray1};
+use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::convert::{self, element_from_py, matrix_from_py, table_from_dict};
+use crate::errors::{input_error, job_error, no_panic, numerical_error, value_error};
+use crate::observer::PyObserver;
+use crate::results::{branch_dict, modes_dict, stop_kind, wave_name};
+
+/// A model held by the library, with the branches of the job file it came from (if any).
+#[pyclass(frozen, module = "nnm._nnm")]
+pub struct NativeModel {
+    structure: Structure,
+    family: String,
+    /// The `[[branch]]` entries of the job file (empty for other models).
+    branches: Vec<BranchJob>,
+}
+
+/// What a switch at one of a computed branch's events needs from it: the start it was
+/// computed from and its located events (kept in the library's types, opaque to Python).
+#[pyclass(frozen, module = "nnm._nnm")]
+pub struct NativeBranch {
+    start: Start,
+    events: Vec<Event>,
+}
+
+#[pymethods]
+impl NativeModel {
+    /// A built-in family from its job-file keys (`family` and its parameters).
+    #[staticmethod]
+    fn from_table(py: Python<'_>, table: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let table = table_from_dict(table)?;
+        let (structure, family) =
+            py.detach(|| no_panic(|| nnm_io::job::model_from_table(table).map_err(input_error)))?;
+        Ok(Self {
+            structure,
+            family,
+            branches: Vec::new(),
+        })
+    }
+
+    /// The model (and branches) of a job file, read as `nnm run` reads it (without the GIL:
+    /// a finite-element export can take a while to read), with `overrides` (dotted keys,
+    /// `nnm_io::job::load_job_with`) replacing keys of the file.
+    #[staticmethod]
+    #[pyo3(signature = (path, overrides=None))]
+    fn from_job(
+        py: Python<'_>,
+        path: PathBuf,
+        overrides: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let mut replaced = Vec::new();
+        for (key, value) in overrides.iter().flat_map(|d| d.iter()) {
+            let key: String = key.extract()?;
+            let value = convert::to_toml(&key, &value)?;
+            replaced.push((key, value));
+        }
+        let job = py.detach(|| {
+            no_panic(|| {
+                nnm_io::job::load_job_with(&path, &replaced).map_err(|e| job_error(&path, e))
+            })
+        })?;
+        Ok(Self {
+            structure: job.structure,
+            family: job.family,
+            branches: job.branches,
+        })
+    }
+
+    /// A general model: matrices (see `matrix_from_py`), elements (`element_from_py`), fixed
+    /// dofs and a cyclic symmetry `(sectors, dofs_per_sector)`.
+    #[staticmethod]
+    #[pyo3(signature = (mass, stiffness, elements, fixed_dofs=None, cyclic=None))]
+    fn general(
+        py: Python<'_>,
+        mass: &Bound<'_, PyAny>,
+        stiffness: &Bound<'_, PyAny>,
+        elements: &Bound<'_, PyList>,
+        fixed_dofs: Option<Vec<usize>>,
+        cyclic: Option<(usize, usize)>,
+    ) -> PyResult<Self> {
+        let mass = matrix_from_py("mass", mass)?;
+        let stiffness = matrix_from_py("stiffness", stiffness)?;
+        let n = mass.nrows();
+        let elements = elements
+            .iter()
+            .enumerate()
+            .map(|(k, e)| element_from_py(k, n, &e))
+            .collect::<PyResult<Vec<_>>>()?;
+        let cyclic = cyclic.map(|(sectors, dofs_per_sector)| CyclicSymmetry {
+            sectors,
+            dofs_per_sector,
+        });
+        // Factorising a large mass can take a while: without the GIL.
+        let structure = py.detach(|| {
+            no_panic(|| {
+                nnm_io::job::general_model(mass, stiffness, elements, fixed_dofs.as_deref(), cyclic)
+                    .map_err(value_error)
+            })
+        })?;
+        Ok(Self {
+            structure,
+            family: "general".into(),
+            branches: Vec::new(),
+        })
+    }
+
+    /// Number of degrees of freedom.
+    #[getter]
+    fn dofs(&self) -> usize {
+        self.structure.dofs()
+    }
+
+    /// `"bladed-disk"`, `"duffing"`, ..., or `"general"`.
+    #[getter]
+    fn family(&self) -> &str {
+        &self.family
+    }
+
+    /// `(sectors, dofs_per_sector)` of a cyclic model, else `None`.
+    #[getter]
+    fn cyclic(&self) -> Option<(usize, usize)> {
+        self.structure
+            .cyclic_symmetry()
+            .map(|c| (c.sectors, c.dofs_per_sector))
+    }
+
+    /// The names of the job file's branches.
+    #[getter]
+    fn branch_names(&self) -> Vec<String> {
+        self.branches.iter().map(|b| b.name.clone()).collect()
+    }
+
+    /// The starting mode of the job's branch `name`, as written (`"n,d"` or an index), and its
+    /// pattern (`cos`/`sin`, `travelling`...): `None` for a branch switched from an event.
+    fn branch_mode(&self, name: &str) -> PyResult<Option<(String, Option<&'static str>)>> {
+        let body = match self.branches.iter().find(|b| b.name == name) {
+            Some(b) if b.from_event.is_some() => return Ok(None),
+            Some(_) => self.job_branch(name, false)?,
+            None => return self.job_branch(name, false).map(|_| None),
+        };
+        let pattern = body.travel.map(|t| t.name()).or(wave_name(body.pattern));
+        Ok(Some((body.mode, pattern)))
+    }
+
+    /// `"mass"` or `"stiffness"` as given: a 2-D array, or `(n, indptr, indices, data)` of
+    /// compressed sparse rows.
+    fn matrix<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        let m = match name {
+            "mass" => self.structure.mass_matrix(),
+            "stiffness" => self.structure.stiffness(),
+            _ => return Err(PyValueError::new_err(format!("no matrix `{name}`"))),
+        };
+        Ok(match m {
+            Matrix::Sparse(s) => {
+                let p = s.pattern();
+                (
+                    s.dimension(),
+                    p.row_start.clone().into_pyarray(py),
+                    p.col.clone().into_pyarray(py),
+                    s.values().to_vec().into_pyarray(py),
+                )
+                    .into_pyobject(py)?
+                    .into_any()
+            }
+            Matrix::Dense(_) => {
+                let n = m.nrows();
+                let a = Array2::from_shape_fn((n, n), |(i, j)| m.get(i, j));
+                a.into_pyarray(py).into_any()
+            }
+        })
+    }
+
+    /// Linear modes in ascending frequency: a dict of `frequency` (rad/s), `shapes` (one
+    /// mass-normalised column per mode), `rigid`, `label` (`"n,d"` or `None`) and `pattern`.
+    fn modes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let modes = self.linear_modes(py)?;
+        let n = self.structure.dofs();
+        modes_dict(py, &modes, n)
+    }
+
+    /// Follows one branch. `mode` and `settings` take the keys of a job file's `[[branch]]`
+    /// (settings merged over nothing: the library's defaults), or `branch` names one of the
+    /// job file's. `callback(index, energy, frequency, stable)` is called after every point;
+    /// returning `False` stops the branch there. Returns a dict (see `branch_dict`).
+    #[pyo3(signature = (mode, settings, branch=None, callback=None))]
+    fn backbone<'py>(
+        &self,
+        py: Python<'py>,
+        mode: Option<&Bound<'py, PyAny>>,
+        settings: &Bound<'py, PyDict>,
+        branch: Option<String>,
+        callback: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let body = match branch {
+            Some(name) => {
+                let mut body = self.job_branch(&name, !settings.is_empty())?;
+                if let Some(mode) = mode {
+                    // The branch's settings from another mode: a sweep follows the job's
+                    // branch on a mistuned model, whose mode is found by its shape.
+                    let mut table = toml::Table::from_iter([(
+                        "mode".to_string(),
+                        convert::to_toml("mode", mode)?,
+                    )]);
+                    (body.mode, body.pattern, body.travel) =
+                        nnm_io::job::branch_mode(&mut table, false).map_err(input_error)?;
+                }
+                body
+            }
+            None => {
+                let mut table = table_from_dict(settings)?;
+                if let Some(mode) = mode {
+                    table.insert("mode".into(), convert::to_toml("mode", mode)?);
+                }
+                nnm_io::job::branch_body(table, &toml::Table::new(), false).map_err(input_error)?
+            }
+        };
+        let mut modes = self.linear_modes(py)?;
+        nnm::modes::add_labelled_mode(&self.structure, &mut modes, &body.mode, body.pattern)
+            .map_err(|e| PyValueError::new_err(format!("modal analysis failed: {e}")))?;
+        let index = nnm_io::job::resolve_mode(&modes, &body.mode, body.pattern)
+            .map_err(PyValueError::new_err)?;
+        let structure = &self.structure;
+        let start = no_panic(|| {
+            Start::for_branch(structure, &modes, index, body.travel, &body.settings)
+                .map_err(value_error)
+        })?;
+        let mode = &modes[index];
+        self.follow(py, start, &body.settings, callback, |out| {
+            out.set_item("mode_index", index)?;
+            out.set_item("mode_label", mode.cyclic.map(|_| mode.label()))?;
+            match body.travel {
+                Some(travel) => out.set_item("pattern", travel.name()),
+                None => out.set_item("pattern", wave_name(mode.cyclic.and_then(|c| c.pattern))),
+            }
+        })
+    }
+
+    /// Follows the family through event `event` of a computed branch (`parent`, the
+    /// `"native"` entry of its dict): a branch point's other family, or a period doubling's
+    /// family of twice the period, started `SWITCH_AMPLITUDE` of the amplitude away along
+    /// null direction `direction` (docs/method.md §9), as `nnm run` does for
+    /// `start = { branch, event }`. `settings` are a switched `[[branch]]`'s keys.
+    #[pyo3(signature = (parent, event, direction, settings, callback=None))]
+    fn switch<'py>(
+        &self,
+        py: Python<'py>,
+        parent: PyRef<'py, NativeBranch>,
+        event: usize,
+        direction: usize,
+        settings: &Bound<'py, PyDict>,
+        callback: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let table = table_from_dict(settings)?;
+        let body =
+            nnm_io::job::branch_body(table, &toml::Table::new(), true).map_err(input_error)?;
+        let count = parent.events.len();
+        let located = parent.events.get(event).ok_or_else(|| {
+            PyIndexError::new_err(format!(
+                "the branch has {count} event{}, so no event {event}",
+                if count == 1 { "" } else { "s" }
+            ))
+        })?;
+        let (structure, parent_start) = (&self.structure, &parent.start);
+        let switch = py.detach(|| {
+            no_panic(|| {
+                Ok(nnm::bifurcation::switch_branch(
+                    structure,
+                    parent_start,
+                    located,
+                    &body.settings,
+                    nnm_io::job::SWITCH_AMPLITUDE,
+                    direction,
+                ))
+            })
+        })?;
+        let switch = switch.map_err(|e| match e {
+            // Asking to switch at a fold or a Krein collision is the caller's mistake.
+            SwitchError::NotABifurcation(_) | SwitchError::NoSuchDirection { .. } => {
+                PyValueError::new_err(e.to_string())
+            }
+            _ => numerical_error(py, format!("cannot switch at event {event}: {e}")),
+        })?;
+        let phase = switch.start.phase.unwrap_or(body.settings.shooting.phase);
+        self.follow(py, switch.start, &body.settings, callback, |out| {
+            let from = PyDict::new(py);
+            from.set_item("event", event)?;
+            from.set_item("direction", direction)?;
+            from.set_item("kind", located.kind.name())?;
+            from.set_item("phase", nnm_io::job::phase_name(phase))?;
+            out.set_item("switched_from", from)
+        })
+    }
+
+    /// The motion from `state0` over `period`, sampled at `samples + 1` equal times (the last
+    /// closes the orbit), integrated to relative `tolerance`: a `(samples + 1) × 2n` array.
+    fn motion<'py>(
+        &self,
+        py: Python<'py>,
+        state0: PyReadonlyArray1<'py, f64>,
+        period: f64,
+        samples: usize,
+        tolerance: f64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.structure.dofs();
+        let z0 = state0.as_slice()?.to_vec();
+        if z0.len() != 2 * n || !(period.is_finite() && period > 0.0) || samples == 0 {
+            return Err(PyValueError::new_err(format!(
+                "motion needs a state of 2 x {n} values, a positive period and at least one sample"
+            )));
+        }
+        let structure = &self.structure;
+        let states = py.detach(|| {
+            no_panic(|| {
+                Ok(nnm::analysis::sample_motion(
+                    structure, &z0, period, samples, tolerance,
+                ))
+            })
+        })?;
+        match states {
+            Ok(states) => {
+                let a = Array2::from_shape_fn((states.len(), 2 * n), |(k, i)| states[k][i]);
+                Ok(a.into_pyarray(py).into_any())
+            }
+            Err(e) => Err(numerical_error(py, e.to_string())),
+        }
+    }
+}
+
+impl NativeModel {
+    /// Follows the branch from `start` without the GIL, handing points to `callback`:
+    /// the result dict of `branch_dict` with the stop, the failure (if any) as data, and the
+    /// native state a switch at one of its events needs. `describe` adds what the caller
+    /// knows of the branch (its mode, where it was switched from) — also to the partial
+    /// result that an exception (Ctrl-C, the callback's) carries as `partial`.
+    fn follow<'py>(
+        &self,
+        py: Python<'py>,
+        start: Start,
+        settings: &nnm::Settings,
+        callback: Option<Py<PyAny>>,
+        describe: impl FnOnce(&Bound<'py, PyDict>) -> PyResult<()>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let structure = &self.structure;
+        let mut observer = PyObserver::new(py, callback.as_ref())?;
+        let clock = std::time::Instant::now();
+        let result = py.detach(|| {
+            no_panic(|| {
+                Ok(nnm::continue_branch_observed(
+                    structure,
+                    &start,
+                    settings,
+                    &mut observer,
+                ))
+            })
+        })?;
+        let wall_time = clock.elapsed().as_secs_f64();
+        let out = PyDict::new(py);
+        out.set_item("linear_frequency", start.omega)?;
+        out.set_item("wall_time", wall_time)?;
+        let output_dofs = start.output_dofs(settings);
+        out.set_item("output_dofs", output_dofs.clone())?;
+        let branch = match result {
+            Ok(branch) => {
+                branch_dict(py, &branch, output_dofs.len(), &out)?;
+                let stopped_by_callback =
+                    observer.stopped && branch.stop == StopReason::Interrupted;
+                out.set_item(
+                    "stop_kind",
+                    if stopped_by_callback {
+                        "callback"
+                    } else {
+                        stop_kind(&branch.stop)
+                    },
+                )?;
+                let failure = match &branch.stop {
+                    StopReason::StepTooSmall(_) => Some(branch.stop.to_string()),
+                    _ => None,
+                };
+                out.set_item("error", failure)?;
+                branch
+            }
+            Err(e) => {
+                let empty = Branch {
+                    points: Vec::new(),
+                    events: Vec::new(),
+                    stop: StopReason::StepTooSmall(String::new()),
+                    stats: Default::default(),
+                    omega: start.omega,
+                    missed_requests: Vec::new(),
+                };
+                branch_dict(py, &empty, output_dofs.len(), &out)?;
+                out.set_item("stop", e.to_string())?;
+                out.set_item("stop_kind", "first-point")?;
+                out.set_item("error", e.to_string())?;
+                empty
+            }
+        };
+        let native = NativeBranch {
+            start,
+            events: branch.events,
+        };
+        out.set_item("native", Py::new(py, native)?)?;
+        describe(&out)?;
+        if let Some(error) = observer.error {
+            // Ctrl-C or the callback's own exception: raised with the points computed before
+            // it (`partial`, made a `Branch` by the Python side), so an interruption loses
+            // nothing.
+            error.value(py).setattr("partial", out)?;
+            return Err(error);
+        }
+        Ok(out)
+    }
+
+    /// Linear modes with the GIL released, failures as the command line words them.
+    fn linear_modes(&self, py: Python<'_>) -> PyResult<Vec<LinearMode>> {
+        let structure = &self.structure;
+        py.detach(|| no_panic(|| Ok(linear_modes(structure))))?
+            .map_err(|e| PyValueError::new_err(format!("modal analysis failed: {e}")))
+    }
+
+    /// The job file's branch `name` as the command line would run it (a branch switched from
+    /// an event of another needs that branch's results: not available here).
+    fn job_branch(&self, name: &str, overridden: bool) -> PyResult<BranchBody> {
+        if overridden {
+            return Err(PyTypeError::new_err(
+                "give either `branch` (a branch of the job file, with its settings, and optionally another `mode`) or `mode` and settings",
+            ));
+        }
+        let job = self
+            .branches
+            .iter()
+            .find(|b| b.name == name)
+            .ok_or_else(|| {
+                let names: Vec<String> = self
+                    .branches
+                    .iter()
+                    .map(|b| format!("`{}`", b.name))
+                    .collect();
+                PyValueError::new_err(format!(
+                    "the job has no branch `{name}` (its branches: {})",
+                    if names.is_empty() {
+                        "none".into()
+                    } else {
+                        names.join(", ")
+                    }
+                ))
+            })?;
+        if let Some(from) = &job.from_event {
+            return Err(PyValueError::new_err(format!(
+                "branch `{name}` starts from event {} of branch `{}`: branch switching is not available from Python yet (run the job with `nnm run`)",
+                from.event, from.branch
+            )));
+        }
+        Ok(BranchBody {
+            mode: job.mode.clone(),
+            pattern: job.pattern,
+            travel: job.travel,
+            settings: job.settings.clone(),
+        })
+    }
+}
