@@ -39,6 +39,7 @@ use nnm::modes::{LinearMode, StandingWave, find_mode};
 use nnm::shooting::{PhaseCondition, Travel};
 use serde::Deserialize;
 
+use crate::error::io_reason;
 use crate::matrix_market::{MarketMatrix, MatrixMarketError, read_matrix_market};
 use crate::tensor_file::read_terms;
 
@@ -1011,15 +1012,6 @@ fn check_file_matrix(
         )));
     }
     Ok(m)
-}
-
-/// One-line message of an I/O error (without the "(os error N)" suffix).
-pub(crate) fn io_reason(e: &std::io::Error) -> String {
-    let s = e.to_string();
-    match s.find(" (os error") {
-        Some(k) => s[..k].to_string(),
-        None => s,
-    }
 }
 
 fn syntax_error(e: &toml::de::Error, text: &str, path: &Path) -> JobError {
