@@ -1,6 +1,7 @@
 //! File formats of nnm: job files (TOML), Matrix Market matrices, and result files
 //! (CSV/JSON). The numerical core (`nnm`) knows nothing of files; this crate is the bridge.
 
+mod error;
 pub mod job;
 pub mod matrix_market;
 pub mod output;

@@ -19,7 +19,7 @@ use nnm::symmetry::Parity;
 use nnm::{Branch, BranchPoint, BranchStats};
 use serde::Serialize;
 
-use crate::job::io_reason;
+use crate::error::io_reason;
 
 /// Why a result file could not be written.
 #[derive(Debug, thiserror::Error)]

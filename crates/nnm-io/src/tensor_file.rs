@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use crate::job::io_reason;
+use crate::error::io_reason;
 use crate::matrix_market::{parse_index, parse_value};
 
 /// The terms `(i, [t_1 … t_N], c)` of a file of `N + 2` columns, 0-based, checked against a

@@ -1,5 +1,7 @@
 use super::*;
-use nnm::model::{MechanicalSystem, PolynomialSpring, PolynomialTensor};
+use std::path::Path;
+
+use nnm::model::{Matrix, MechanicalSystem, PolynomialSpring, PolynomialTensor};
 use nnm::shooting::{JacobianMethod, PhaseCondition};
 
 fn parse(text: &str) -> Result<Job, JobError> {
@@ -724,4 +726,106 @@ fn overrides_replace_keys_of_the_job_file() {
         "{fractional}"
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The names of the built-in families (what the unknown-family message lists).
+fn family_names() -> &'static [&'static str] {
+    match families::family_keys("") {
+        Err(families::FamilyError::Unknown(names)) => names,
+        other => panic!("{other:?}"),
+    }
+}
+
+/// A family's default parameters, as `family_defaults` gives them to front ends, are what a
+/// job with only `family = "..."` builds: written out in full, they build the same model.
+#[test]
+fn family_defaults_are_what_a_bare_family_builds() {
+    assert_eq!(
+        family_names(),
+        [
+            "bladed-disk",
+            "duffing",
+            "two-dof",
+            "cantilever-beam",
+            "von-karman-beam"
+        ]
+    );
+    for &name in family_names() {
+        let defaults = family_defaults(name).unwrap();
+        let keys = families::family_keys(name).unwrap();
+        let mut given: Vec<&str> = defaults.keys().map(String::as_str).collect();
+        let mut fields = keys.to_vec();
+        given.sort_unstable();
+        fields.sort_unstable();
+        assert_eq!(given, fields, "{name}: every parameter has its default");
+        let bare = parse(&format!("[model]\nfamily = \"{name}\"\n")).unwrap();
+        let mut table = defaults.clone();
+        table.insert("family".into(), name.into());
+        let (full, family) = model_from_table(table.clone()).unwrap();
+        assert_eq!(family, name);
+        assert_eq!(
+            format!("{:?}", full),
+            format!("{:?}", bare.structure),
+            "{name}"
+        );
+        // And as a job file's text.
+        let text = format!("[model]\n{}", toml::to_string(&table).unwrap());
+        let written = parse(&text).unwrap();
+        assert_eq!(
+            format!("{:?}", written.structure),
+            format!("{:?}", bare.structure)
+        );
+    }
+    assert_eq!(family_defaults("bladed"), None);
+    assert_eq!(family_defaults("general"), None);
+    let duffing = family_defaults("duffing").unwrap();
+    assert_eq!(duffing["natural_frequency"].as_float(), Some(1.0));
+    assert_eq!(duffing["cubic"].as_float(), Some(1.0));
+    assert_eq!(
+        family_defaults("two-dof").unwrap()["cubic"].as_float(),
+        Some(0.5)
+    );
+}
+
+/// `[model]`'s keys (listed in the unknown-key message, in that order) are exactly
+/// `family`, the families' parameters and a general model's keys.
+#[test]
+fn model_keys_are_the_families_and_the_general_models() {
+    let mut keys: Vec<&str> = vec!["family"];
+    for &name in family_names() {
+        keys.extend(families::family_keys(name).unwrap());
+    }
+    keys.extend(schema::GENERAL_KEYS);
+    keys.sort_unstable();
+    keys.dedup();
+    let mut listed = schema::MODEL_KEYS.to_vec();
+    listed.sort_unstable();
+    assert_eq!(keys, listed);
+}
+
+/// A family parameter of the wrong type is reported where it stands, inside an array too;
+/// a key that belongs to no family is refused at the key, listing every key of `[model]`.
+#[test]
+fn family_parameter_errors_keep_their_place() {
+    let cases = [
+        (
+            "[model]\nfamily = \"bladed-disk\"\nsectors = \"x\"",
+            "job.toml:3:11: invalid type: string \"x\", expected usize",
+        ),
+        (
+            "[model]\nfamily = \"bladed-disk\"\nsectors = 3\nblade_stiffness_mistuning = [\"a\"]",
+            "job.toml:4:30: invalid type: string \"a\", expected f64",
+        ),
+        (
+            "[model]\nfamily = \"duffing\"\ncubc = 3.0",
+            "job.toml:3:1: unknown field `cubc`, expected one of `family`, `sectors`, `disk_mass`, `blade_mass`, `disk_coupling`, `blade_stiffness`, `cubic`, `blade_stiffness_mistuning`, `natural_frequency`, `elements`, `length`, `width`, `height`, `thickness`, `youngs_modulus`, `density`, `mass`, `stiffness`, `nonlinear`, `cyclic`, `fixed_dofs`",
+        ),
+        (
+            "[model]\nfamily = \"bladed\"",
+            "job.toml: unknown model family `bladed` (expected \"bladed-disk\", \"duffing\", \"two-dof\", \"cantilever-beam\", \"von-karman-beam\", or no family with mass and stiffness)",
+        ),
+    ];
+    for (text, expected) in cases {
+        assert_eq!(error(text), expected);
+    }
 }

@@ -12,7 +12,10 @@ use super::{ModelError, NonlinearElement, PolynomialSpring, SparseMatrix, Struct
 /// elements its first linear frequencies are 23.66, 148.3, 415.2, 813.7 Hz. Dofs: node `i`
 /// (`1..=elements`, the clamped node 0 removed) has `w` at `2(i−1)` and `θ` at `2(i−1)+1`; the
 /// tip displacement is dof `2·elements − 2`.
-#[derive(Debug, Clone, PartialEq)]
+///
+/// Missing keys of a job file take the [`Default`] values.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct CantileverBeam {
     /// Number of elements (at least 1).
     pub elements: usize,

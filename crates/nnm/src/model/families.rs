@@ -4,6 +4,7 @@ use super::{
     CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, SparseMatrix, Structure,
 };
 use crate::linalg::Mat;
+use serde::{Deserialize, Serialize};
 
 fn positive(name: &str, value: f64) -> Result<(), ModelError> {
     if value.is_finite() && value > 0.0 {
@@ -37,6 +38,33 @@ pub fn duffing(natural_frequency: f64, cubic: f64) -> Result<Structure, ModelErr
     )
 }
 
+/// The [`duffing`] oscillator's parameters, as a job file's `family = "duffing"` takes them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Duffing {
+    /// `ω₀`
+    pub natural_frequency: f64,
+    /// `a`
+    pub cubic: f64,
+}
+
+impl Default for Duffing {
+    /// `x'' + x + x³ = 0`.
+    fn default() -> Self {
+        Self {
+            natural_frequency: 1.0,
+            cubic: 1.0,
+        }
+    }
+}
+
+impl Duffing {
+    /// The oscillator ([`duffing`]); rejects out-of-range parameters.
+    pub fn build(&self) -> Result<Structure, ModelError> {
+        duffing(self.natural_frequency, self.cubic)
+    }
+}
+
 /// The 2-DOF system of Kerschen et al. (2009): `x1'' + (2 x1 - x2) + c x1³ = 0`,
 /// `x2'' + (2 x2 - x1) = 0`, with `c = 0.5` in the reference.
 pub fn two_dof(cubic: f64) -> Result<Structure, ModelError> {
@@ -48,13 +76,37 @@ pub fn two_dof(cubic: f64) -> Result<Structure, ModelError> {
     )
 }
 
+/// The [`two_dof`] system's parameter, as a job file's `family = "two-dof"` takes it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TwoDof {
+    /// `c`
+    pub cubic: f64,
+}
+
+impl Default for TwoDof {
+    /// The reference's `c = 0.5`.
+    fn default() -> Self {
+        Self { cubic: 0.5 }
+    }
+}
+
+impl TwoDof {
+    /// The system ([`two_dof`]); rejects a non-finite coefficient.
+    pub fn build(&self) -> Result<Structure, ModelError> {
+        two_dof(self.cubic)
+    }
+}
+
 /// Largest number of sectors of a [`BladedDisk`] (its modal analysis is still dense).
 pub const MAX_SECTORS: usize = 5_000;
 
 /// The nonlinear bladed disk of docs/method.md §11: `sectors` sectors, each a disk mass `X_i` coupled to
 /// its neighbours (cyclically) and a blade mass `x_i` attached by a linear spring plus a cubic
-/// one. Dof `2i` is the disk of sector `i`, dof `2i+1` its blade.
-#[derive(Debug, Clone, PartialEq)]
+/// one. Dof `2i` is the disk of sector `i`, dof `2i+1` its blade. Missing keys of a job file
+/// take the [`Default`] values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct BladedDisk {
     /// Number of sectors `N` (30 in the paper; at most `MAX_SECTORS` = 5 000).
     pub sectors: usize,

@@ -31,7 +31,7 @@ pub use block::{Block, BlockMut};
 pub use constraints::FixedDofs;
 pub use elements::PolynomialSpring;
 pub use explicit::ExplicitForm;
-pub use families::{BladedDisk, duffing, two_dof};
+pub use families::{BladedDisk, Duffing, TwoDof, duffing, two_dof};
 pub use mass::{Mass, MassNotPositiveDefinite, MassOperator, dense_mass_matrix, mass_entries};
 pub use matrix::{Matrix, SparseMatrix, SparsityPattern};
 pub use structure::{CyclicSymmetry, ModelError, Structure};

@@ -33,7 +33,10 @@ use super::{Block, BlockMut, ModelError, NonlinearElement, SparseMatrix, Structu
 /// the first mode's backbone, which hardens, meets a 5:1 internal resonance with the third —
 /// at +8% if the third stayed at its linear frequency, later since the membrane tension of
 /// the bent beam stiffens the third mode too.
-#[derive(Debug, Clone, PartialEq)]
+///
+/// Missing keys of a job file take the [`Default`] values.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct VonKarmanBeam {
     /// Number of elements (at least 2: with one, both nodes are clamped and nothing moves).
     pub elements: usize,

@@ -1,0 +1,230 @@
+//! Reading a job file: the text parsed, overrides applied, then checked in the order of
+//! the file (the model, `[settings]`, each branch), every error one line naming the file.
+
+use std::ops::Range;
+use std::path::Path;
+
+use nnm::MechanicalSystem;
+
+use super::branch::{BranchBody, branch_body, settings_from};
+use super::families::Family;
+use super::model::{SpecError, build_model, typed_family};
+use super::schema::{EventStart, JobFile, from_table};
+use super::{BranchJob, Job, JobError};
+use crate::error::io_reason;
+
+/// Reads and validates a job file. Matrix files are resolved relative to the job's folder.
+pub fn load_job(path: &Path) -> Result<Job, JobError> {
+    let text = std::fs::read_to_string(path).map_err(|e| JobError::Read {
+        path: path.to_owned(),
+        reason: io_reason(&e),
+    })?;
+    parse_job(&text, path)
+}
+
+/// Parses a job from text; `path` names it in errors and anchors relative matrix files.
+pub fn parse_job(text: &str, path: &Path) -> Result<Job, JobError> {
+    let file: JobFile = toml::from_str(text).map_err(|e| syntax_error(&e, text, path))?;
+    let family = typed_family(&file.model, Some(text)).map_err(|e| match e {
+        SpecError::Invalid(message) => JobError::Invalid {
+            path: path.to_owned(),
+            message,
+        },
+        SpecError::Value { message, span } => located(&message, span, text, path),
+    })?;
+    job_from_file(file, family, path)
+}
+
+/// Reads a job file with some of its keys replaced: the parameter studies' way of varying a
+/// job (`python -m nnm sweep --grid model.cubic=...`, mistuning as
+/// `model.blade_stiffness_mistuning`). Each override is a dotted key, `model.KEY`,
+/// `settings.KEY` or `branch.NAME.KEY`, and a value of the type the key takes; the job is then
+/// validated as if the file said so (messages name the file, without a line).
+pub fn load_job_with(path: &Path, overrides: &[(String, toml::Value)]) -> Result<Job, JobError> {
+    if overrides.is_empty() {
+        return load_job(path);
+    }
+    let text = std::fs::read_to_string(path).map_err(|e| JobError::Read {
+        path: path.to_owned(),
+        reason: io_reason(&e),
+    })?;
+    let original: toml::Table = text.parse().map_err(|e| syntax_error(&e, &text, path))?;
+    let invalid = |key: &str, message: String| JobError::Invalid {
+        path: path.to_owned(),
+        message: format!("override `{key}`: {message}"),
+    };
+    let mut table = original.clone();
+    for (key, value) in overrides {
+        override_key(&mut table, key, value.clone()).map_err(|m| invalid(key, m))?;
+    }
+    // serde's message on a value of the wrong type names the type, not the key: name the
+    // override that `breaks` the file on its own (the file itself parsed).
+    let refused = |message: String, breaks: &dyn Fn(&toml::Table) -> bool| {
+        let culprit = overrides.iter().find(|(key, value)| {
+            let mut alone = original.clone();
+            override_key(&mut alone, key, value.clone()).is_ok() && breaks(&alone)
+        });
+        match culprit {
+            Some((key, _)) => invalid(key, message),
+            None => JobError::Invalid {
+                path: path.to_owned(),
+                message,
+            },
+        }
+    };
+    let file: JobFile = from_table(&table).map_err(|e: toml::de::Error| {
+        refused(e.message().trim().to_string(), &|alone| {
+            from_table::<JobFile>(alone).is_err()
+        })
+    })?;
+    let family = typed_family(&file.model, None).map_err(|e| match e {
+        SpecError::Invalid(message) => JobError::Invalid {
+            path: path.to_owned(),
+            message,
+        },
+        SpecError::Value { message, .. } => refused(message, &|alone| {
+            from_table::<JobFile>(alone)
+                .is_ok_and(|f| matches!(typed_family(&f.model, None), Err(SpecError::Value { .. })))
+        }),
+    })?;
+    job_from_file(file, family, path)
+}
+
+/// Sets `key` (see [`load_job_with`]) in a job file's table, creating `[settings]` or the
+/// `[model]` key if absent; a branch must exist.
+fn override_key(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<(), String> {
+    let parts: Vec<&str> = key.split('.').collect();
+    let target = match parts.as_slice() {
+        ["model" | "settings", _] => {
+            let section = table
+                .entry(parts[0])
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            section
+                .as_table_mut()
+                .ok_or_else(|| format!("[{}] is not a table", parts[0]))?
+        }
+        ["branch", name, _] => table
+            .get_mut("branch")
+            .and_then(|b| b.as_array_mut())
+            .and_then(|branches| {
+                branches.iter_mut().find_map(|b| {
+                    b.as_table_mut()
+                        .filter(|t| t.get("name").and_then(|n| n.as_str()) == Some(*name))
+                })
+            })
+            .ok_or_else(|| format!("the job has no branch `{name}`"))?,
+        _ => {
+            return Err("expected `model.KEY`, `settings.KEY` or `branch.NAME.KEY`".to_string());
+        }
+    };
+    let last = parts[parts.len() - 1];
+    if last == "name" || last == "family" {
+        return Err(format!("`{last}` cannot be overridden"));
+    }
+    target.insert(last.to_string(), value);
+    Ok(())
+}
+
+/// A parsed job file, checked and built.
+fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<Job, JobError> {
+    let invalid = |message: String| JobError::Invalid {
+        path: path.to_owned(),
+        message,
+    };
+    let base = path.parent().unwrap_or(Path::new("."));
+    let (structure, family) = build_model(&file.model, family.as_ref(), base, path)?;
+
+    let defaults: toml::Table = file.settings.unwrap_or_default();
+    let default_settings =
+        settings_from(defaults.clone()).map_err(|m| invalid(format!("[settings]: {m}")))?;
+    default_settings
+        .validate_for(structure.dofs())
+        .map_err(|e| invalid(format!("[settings]: {e}")))?;
+    let mut branches = Vec::new();
+    for (k, mut table) in file.branch.into_iter().enumerate() {
+        let context = |what: &str| format!("branch {}: {what}", k + 1);
+        let name = match table.remove("name") {
+            Some(toml::Value::String(s)) => s,
+            Some(_) => return Err(invalid(context("`name` must be a string"))),
+            None => return Err(invalid(context("missing `name`"))),
+        };
+        let valid_name = name != "modes"
+            && !name.is_empty()
+            && name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+            && !name.starts_with('.');
+        if !valid_name {
+            return Err(invalid(context(&format!(
+                "name `{name}` must be non-empty, not `modes`, and use only letters, digits, '-', '_', '.'"
+            ))));
+        }
+        if branches.iter().any(|b: &BranchJob| b.name == name) {
+            return Err(invalid(format!("duplicate branch name `{name}`")));
+        }
+        let from_event: Option<EventStart> = match table.remove("start") {
+            None => None,
+            Some(value) => Some(value.try_into().map_err(|e: toml::de::Error| {
+                invalid(context(&format!(
+                    "`start` must be {{ branch = \"NAME\", event = K }}: {}",
+                    e.message()
+                )))
+            })?),
+        };
+        if let Some(start) = &from_event
+            && !branches.iter().any(|b: &BranchJob| b.name == start.branch)
+        {
+            return Err(invalid(context(&format!(
+                "`start` refers to branch `{}`, which must be defined above this one",
+                start.branch
+            ))));
+        }
+        let BranchBody {
+            mode,
+            pattern,
+            travel,
+            settings,
+        } = branch_body(table, &defaults, from_event.is_some())
+            .map_err(|m| invalid(context(&m)))?;
+        settings
+            .validate_for(structure.dofs())
+            .map_err(|e| invalid(context(&e.to_string())))?;
+        branches.push(BranchJob {
+            name,
+            mode,
+            from_event,
+            pattern,
+            travel,
+            settings,
+        });
+    }
+    Ok(Job {
+        structure,
+        family,
+        branches,
+        default_settings,
+    })
+}
+
+fn syntax_error(e: &toml::de::Error, text: &str, path: &Path) -> JobError {
+    located(e.message(), e.span(), text, path)
+}
+
+/// An error at `span` of the job's `text` (its start's line and column, 1-based), with the
+/// first line of `message`.
+fn located(message: &str, span: Option<Range<usize>>, text: &str, path: &Path) -> JobError {
+    let (line, column) = span
+        .map(|span| {
+            let before = &text[..span.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.len() - before.rfind('\n').map_or(0, |k| k + 1) + 1;
+            (line, column)
+        })
+        .unwrap_or((1, 1));
+    JobError::Syntax {
+        path: path.to_owned(),
+        line,
+        column,
+        message: message.lines().next().unwrap_or("syntax error").to_string(),
+    }
+}
