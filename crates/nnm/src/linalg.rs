@@ -2,7 +2,7 @@
 //!
 //! Every decomposition the crate uses goes through here, so a faer upgrade touches one file.
 //! faer runs sequentially (`Par::Seq`): at the sizes of a shooting Jacobian (tens to a few
-//! hundred unknowns) its 2-thread mode was measured slower on this machine (STACK.md);
+//! hundred unknowns) its 2-thread mode was measured slower;
 //! parallelism belongs at the outer level (independent branches).
 
 pub use faer::Mat;

@@ -1,6 +1,6 @@
 //! The fused linear-combination kernel of the Runge–Kutta stages: `out = base + Σ c_t x_t`
 //! over whole state or sensitivity blocks, in L1-sized chunks with an AVX2 build chosen at
-//! run time (the integrator's hot loop; runge_kutta.rs notes give the measured effect).
+//! run time (the integrator's hot loop).
 
 /// At most this many terms in one combination (stages + 1).
 pub(super) const MAX_TERMS: usize = 24;

@@ -9,13 +9,12 @@
 //! default, [`DOPRI5`]) for non-stiff models; implicit schemes for stiff finite-element models
 //! plug in beside it.
 
-mod gauss;
+mod collocation;
 mod kernels;
 mod runge_kutta;
-mod split;
 mod tableau;
 
-pub use gauss::{
+pub use collocation::{
     Collocation, CollocationLinearization, GAUSS4, GAUSS6, GaussLegendre, RADAU5, SPLIT_DOFS,
 };
 pub use runge_kutta::RungeKutta;

@@ -14,21 +14,19 @@
 //! its own embedded error, per direction, must pass too. Controlled on the motion alone, a
 //! linear-regime orbit of a slow mode lets the steps grow until the fast modes of `Φ` sit at
 //! the edge of the method's stability region: on a chain of 50 masses a multiplier of modulus
-//! 3.18 instead of 1, of 0.012 on two DOF with ω = 1 and 20 (issue 13). A step the
+//! 3.18 instead of 1, of 0.012 on two DOF with ω = 1 and 20. A step the
 //! sensitivities reject costs their pass once; the next step is sized by the stricter of the
 //! two estimates, so such rejections are rare after the first steps.
 //!
-//! **Sensitivity pass (measured).** `Φ` is stored interleaved (the `k` directions of a state
+//! **Sensitivity pass.** `Φ` is stored interleaved (the `k` directions of a state
 //! index contiguous), so the sparse tangent combines whole contiguous rows. The upper half of
 //! `J Φ` is `Φ_v`, so the stages need only `Φ_x` and `A Φ_x`: with `K_j = A(x_j) Φ_{x,j}`,
 //! `Φ_{x,i} = Φ_x + h σ_i Φ_v + h² Σ_l ā_il K_l` (`σ = A·1`, `ā = A²`) and the step ends with
 //! `Φ_x += h Σb Φ_v + h² Σ_l (bᵀA)_l K_l`, `Φ_v += h Σ_j b_j K_j` — the same discrete map
 //! (identical in exact arithmetic) on half the data, each combination one fused pass.
 //! Directions are padded to a multiple of four (zero directions stay zero) for the four-lane
-//! AVX2 kernels of `linalg`. Together with the assembled sparse tangent this took the
-//! bladed-disk 3:1 tongue from 8.9 s to 2.6–3.3 s and the (1,5) backbone example from 5.23e9
-//! to 1.59e9 instructions. Tried and dropped: integrating the directions in blocks of 32 so
-//! that a block's stages stay in L2 (slower: the per-call set-up outweighed the cache gain).
+//! AVX2 kernels of `linalg`. Not done: integrating the directions in blocks of 32 so that a
+//! block's stages stay in L2 (slower: the per-call set-up outweighs the cache gain).
 //!
 //! **Choice of scheme (measured).** On the Duffing backbone `x'' + x + x³ = 0` to +50%
 //! frequency (`nnm run` with `integrator = "dop853"` vs `"dopri5"`, same shooting tolerance),

@@ -24,9 +24,17 @@ use std::sync::Arc;
 
 use faer::c64;
 
-use super::gauss::StageTangents;
+use super::tangents::StageTangents;
 use crate::linalg::{Mat, SparseLu, SparseLuPattern};
 use crate::model::SparseMatrix;
+
+/// Models of more dofs than this split their stage systems (eq. (32f)) in the integrations
+/// that carry no sensitivity block. Why not all: refining every recorded solve to round-off
+/// costs more than the whole factorisation saves — on the von Kármán beam, matrix-free, split
+/// takes half (3,000 dofs) to 40% (10⁴ dofs) of the memory and 1.65 to 1.45 times the time.
+/// Above 10⁴ dofs the whole factorisations a matrix-free integration records grow past what a
+/// workstation holds (~16 GB at 10⁵ dofs, ~6.5 GB split).
+pub const SPLIT_DOFS: usize = 10_000;
 
 /// Most refinement sweeps of an exact stage solve ([`SplitLu::solve_exact`]); a step whose
 /// tangent changes so much that they do not suffice has a step far too long for its error
