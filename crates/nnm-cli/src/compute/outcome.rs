@@ -9,6 +9,7 @@ pub struct Outcome {
     pub info: BranchInfo,
     /// The branch, or why it failed ([`NotStarted`] after Ctrl-C).
     pub result: Result<Branch>,
+    /// Wall time of its computation (0 for a branch not started).
     pub seconds: f64,
     /// The start the branch was computed from (what a switched branch builds on).
     pub start: Option<Start>,

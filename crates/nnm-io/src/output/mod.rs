@@ -1,4 +1,4 @@
-//! Result files (README "Output files"): `modes.csv`, and per branch
+//! Result files (docs/output.md): `modes.csv`, and per branch
 //! `<name>.csv` (its columns declared in [`columns`]), `<name>.json` and `<name>.events.csv`
 //! (folds, branch points, period doublings and Krein collisions).
 //!
