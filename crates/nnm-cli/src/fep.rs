@@ -12,7 +12,7 @@ use nnm_plot::{
     FrequencyEnergyPlot, Line, LinePlot, Marker, MarkerShape, Series, SeriesPoint, palette_color,
 };
 
-use crate::run::Outcome;
+use crate::compute::Outcome;
 
 /// The energy axis of every frequency–energy plot: what the energy is, in the model's units.
 pub const ENERGY_AXIS: &str = "total energy E = kinetic + potential (units of the model)";

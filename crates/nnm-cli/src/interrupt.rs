@@ -1,7 +1,7 @@
 //! Ctrl-C (SIGINT) as a request to stop, not a kill: the branches in progress stop at their
 //! next point or event (everything computed is already on disk), branches not yet started
 //! are skipped, and the command still writes its summary, frequency–energy plot and report for
-//! what was finished, then exits with [`crate::EXIT_INTERRUPTED`]. A second Ctrl-C ends the
+//! what was finished, then exits with [`crate::exit::EXIT_INTERRUPTED`]. A second Ctrl-C ends the
 //! process at once (the handler is reset to the default action when the first is delivered),
 //! for a point that would take too long to finish.
 

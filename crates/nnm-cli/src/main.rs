@@ -2,8 +2,11 @@
 
 mod beam_study;
 mod bench;
+mod compute;
+mod exit;
 mod fep;
 mod interrupt;
+mod modes;
 mod out_dir;
 mod progress;
 mod run;
@@ -132,41 +135,6 @@ fn restore_default_sigpipe() {
     }
 }
 
-/// Exit code of a run whose every branch ran, but one stopped before its limit (no
-/// convergence at the minimum step): its results are written, yet a script must not take them
-/// for the branch asked for. (2 is clap's code for a command-line usage error.)
-pub const EXIT_STOPPED_EARLY: u8 = 3;
-/// Exit code after Ctrl-C: 128 + SIGINT, as shells report a process ended by it.
-pub const EXIT_INTERRUPTED: u8 = 130;
-
-/// A command that wrote its results but did not finish what was asked; told apart from a
-/// failure (exit code 1) by its own exit code.
-#[derive(Debug)]
-pub enum Unfinished {
-    /// A branch stopped before its limit ([`EXIT_STOPPED_EARLY`]).
-    StoppedEarly(String),
-    /// Ctrl-C ([`EXIT_INTERRUPTED`]).
-    Interrupted(String),
-}
-
-impl std::fmt::Display for Unfinished {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Unfinished::StoppedEarly(m) | Unfinished::Interrupted(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for Unfinished {}
-
-fn exit_code(error: &anyhow::Error) -> u8 {
-    match error.downcast_ref::<Unfinished>() {
-        Some(Unfinished::StoppedEarly(_)) => EXIT_STOPPED_EARLY,
-        Some(Unfinished::Interrupted(_)) => EXIT_INTERRUPTED,
-        None => 1,
-    }
-}
-
 fn main() -> ExitCode {
     restore_default_sigpipe();
     interrupt::install();
@@ -189,7 +157,7 @@ fn main() -> ExitCode {
         Ok(Err(e)) => {
             let text = format!("{e:#}").replace('\n', " ");
             eprintln!("error: {text}");
-            ExitCode::from(exit_code(&e))
+            ExitCode::from(exit::exit_code(&e))
         }
         Err(_) => ExitCode::from(101),
     }
@@ -209,7 +177,7 @@ fn execute(cli: Cli) -> Result<()> {
         check_threads(*threads)?;
     }
     match cli.command {
-        Command::Modes { file, out } => run::modes(&file, out.as_deref()),
+        Command::Modes { file, out } => modes::modes(&file, out.as_deref()),
         Command::Run {
             job,
             out,
@@ -275,7 +243,7 @@ fn execute(cli: Cli) -> Result<()> {
 /// Writes an example's job file as `DIR/<name>.toml` (creating DIR), to edit and rerun; returns
 /// its path.
 fn write_example_job(out: &Path, name: &str, text: &str) -> Result<PathBuf> {
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    out_dir::create_dir(out)?;
     let job = out.join(format!("{name}.toml"));
     std::fs::write(&job, text).with_context(|| format!("cannot write {}", job.display()))?;
     progress::say!("example {name}: job file written to {}", job.display());

@@ -10,7 +10,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use crate::run::create_dir;
+/// Creates `dir` and its parents if missing.
+pub fn create_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
+}
 
 /// The lock file's name inside the output folder.
 pub const LOCK_FILE: &str = ".nnm.lock";

@@ -16,7 +16,7 @@ use nnm::model::{CantileverBeam, MechanicalSystem};
 use nnm::modes::{LinearMode, linear_modes};
 use nnm_io::job::load_job;
 
-use crate::run::{Outcome, compute_all, failures, print_summary, resolve};
+use crate::compute::{Outcome, compute_all, failures, print_summary, resolve};
 
 mod output;
 
@@ -122,7 +122,7 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
         print_summary(&outcomes, &modes);
     }
     if crate::interrupt::requested() {
-        return Err(crate::Unfinished::Interrupted(
+        return Err(crate::exit::Unfinished::Interrupted(
             "interrupted: the summary above and the branch files hold what was computed".into(),
         )
         .into());

@@ -11,7 +11,7 @@ use nnm_io::output::{number, write_table};
 use nnm_plot::{FrequencyEnergyPlot, Line, LinePlot, PlotGrid, Series};
 
 use super::{BeamStudy, Deflection, hz};
-use crate::run::Outcome;
+use crate::compute::Outcome;
 
 /// `modes.csv`: the model's first linear frequencies beside Euler–Bernoulli theory.
 pub(super) fn modes_csv(study: &BeamStudy, path: &Path) -> Result<()> {

@@ -15,7 +15,8 @@ use nnm::{Branch, BranchPoint, Settings};
 use nnm_io::job::BranchJob;
 
 use super::StudyOptions;
-use crate::run::{Outcome, compute_all, compute_branch, create_dir, failures, make_start, resolve};
+use crate::compute::{Outcome, compute_all, compute_branch, failures, make_start, resolve};
+use crate::out_dir::create_dir;
 
 /// Backbones of the quick study: enough for every section (the tongue's ends (0,6) and (1,12),
 /// the localizing (1,14), the switch on (1,5)) and a few to compare with.

@@ -13,11 +13,11 @@ use nnm::bifurcation::{Event, EventKind, Switch, switch_branch};
 use nnm::model::{MechanicalSystem, Structure};
 use nnm::modes::{LinearMode, StandingWave, find_mode};
 use nnm::{Branch, Settings};
-use nnm_io::job::BranchJob;
+use nnm_io::job::{BranchJob, SWITCH_AMPLITUDE, phase_name};
 use nnm_io::output::SwitchedFrom;
 
 use super::backbones::Backbones;
-use crate::run::{Outcome, SWITCH_AMPLITUDE, compute_branch, phase_name};
+use crate::compute::{Outcome, compute_branch};
 
 /// How far the switched family is followed (relative frequency rise).
 pub(super) const SWITCHED_SHIFT: f64 = 0.06;

@@ -19,8 +19,9 @@ use nnm::modes::{find_mode, linear_modes};
 use nnm::shooting::JacobianMethod;
 use nnm_io::job::load_job;
 
+use crate::exit::Unfinished;
+use crate::interrupt;
 use crate::out_dir::OutDir;
-use crate::{Unfinished, interrupt};
 use report::Report;
 
 mod backbones;

@@ -19,7 +19,7 @@ use nnm_io::job::BranchJob;
 
 use super::SAMPLES;
 use super::backbones::{lagrange, single_branch};
-use crate::run::create_dir;
+use crate::out_dir::create_dir;
 
 /// Largest arclength step on the tongue (relative to the amplitude). The tongue runs close to
 /// other branches near its root: before slow or far-off correctors were rejected, a step of

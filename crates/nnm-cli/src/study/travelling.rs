@@ -14,7 +14,7 @@ use nnm_io::job::BranchJob;
 
 use super::backbones::{Backbones, frequency_at, single_branch};
 use super::{SAMPLES, StudyOptions};
-use crate::run::create_dir;
+use crate::out_dir::create_dir;
 
 /// The pairs whose travelling waves are computed: the switch's (1,5) and the localizing (1,14).
 pub(super) const TRAVELLING_MODES: [&str; 2] = ["1,5", "1,14"];

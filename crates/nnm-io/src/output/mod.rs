@@ -1,5 +1,6 @@
-//! Result files (README "Output files"): `modes.csv`, and per branch `<name>.csv`, `<name>.json` and
-//! `<name>.events.csv` (folds, branch points, period doublings and Krein collisions).
+//! Result files (docs/output.md): `modes.csv`, and per branch
+//! `<name>.csv` (its columns declared in [`columns`]), `<name>.json` and `<name>.events.csv`
+//! (folds, branch points, period doublings and Krein collisions).
 //!
 //! The branch files are written as each point converges or event is located, so an
 //! interruption loses nothing:
@@ -20,6 +21,8 @@ use nnm::{Branch, BranchPoint, BranchStats};
 use serde::Serialize;
 
 use crate::error::io_reason;
+
+pub mod columns;
 
 /// Why a result file could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -117,6 +120,16 @@ pub struct BranchInfo {
     pub switched_from: Option<SwitchedFrom>,
     /// The dofs whose peak displacements the `peak_x<d>` columns hold.
     pub output_dofs: Vec<usize>,
+}
+
+impl BranchInfo {
+    /// What the branch's point columns need besides its points.
+    pub fn columns_context(&self) -> columns::BranchContext<'_> {
+        columns::BranchContext {
+            linear_frequency_rad_s: self.linear_frequency_rad_s,
+            output_dofs: &self.output_dofs,
+        }
+    }
 }
 
 /// Where a switched branch came from.
@@ -279,19 +292,6 @@ impl std::fmt::Display for Number {
     }
 }
 
-/// Columns of `<name>.csv`, in order, before one `peak_x<d>` column per output dof (see
-/// [`branch_csv_header`]; docs/output.md describes each).
-pub const BRANCH_CSV_HEADER: &str = "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs,label,frequency_hz,frequency_ratio,regime,partner_mode,partner_harmonic,partner_share,ratio";
-
-/// The header of `<name>.csv` for a branch with these output dofs.
-pub fn branch_csv_header(output_dofs: &[usize]) -> Vec<String> {
-    BRANCH_CSV_HEADER
-        .split(',')
-        .map(str::to_string)
-        .chain(output_dofs.iter().map(|d| format!("peak_x{d}")))
-        .collect()
-}
-
 /// Columns of `<name>.events.csv`, in order.
 pub const EVENTS_CSV_HEADER: &str = "index,type,energy,frequency_rad_s,period_s,multiplier_re,multiplier_im,multiplier_modulus,multiplicity,after_point,arclength_uncertainty,converged";
 
@@ -317,21 +317,6 @@ impl CsvFile {
     }
 }
 
-/// The regime columns of a point: `regime,partner_mode,partner_harmonic,partner_share,ratio`.
-fn regime_fields(regime: Option<&Regime>) -> [String; 5] {
-    let Some(r) = regime else {
-        return Default::default();
-    };
-    let partner = r.partner;
-    [
-        r.kind.name().to_string(),
-        partner.map_or(String::new(), |p| p.mode.to_string()),
-        partner.map_or(String::new(), |p| p.harmonic.to_string()),
-        partner.map_or(String::new(), |p| Number(p.share).to_string()),
-        r.ratio.map_or(String::new(), |(m, n)| format!("{m}:{n}")),
-    ]
-}
-
 /// Streams one branch to `<dir>/<name>.csv` and `<dir>/<name>.json`.
 pub struct BranchWriter {
     info: BranchInfo,
@@ -347,7 +332,7 @@ impl BranchWriter {
     pub fn create(dir: &Path, info: BranchInfo) -> Result<Self, OutputError> {
         let csv = CsvFile::create(
             dir.join(format!("{}.csv", info.name)),
-            &branch_csv_header(&info.output_dofs),
+            &columns::csv_header(&info.columns_context()),
         )?;
         let events_header: Vec<String> = EVENTS_CSV_HEADER.split(',').map(String::from).collect();
         let events_csv = CsvFile::create(
@@ -404,29 +389,7 @@ impl BranchWriter {
 
     /// Appends one converged point to both files (flushed to the OS before returning).
     pub fn write_point(&mut self, p: &BranchPoint) -> Result<(), OutputError> {
-        let mut record = vec![
-            p.index.to_string(),
-            Number(p.energy).to_string(),
-            Number(p.frequency).to_string(),
-            Number(p.period).to_string(),
-            p.floquet.stable.to_string(),
-            Number(p.floquet.max_modulus).to_string(),
-            Number(p.relative_residual).to_string(),
-            p.iterations.to_string(),
-            Number(p.step).to_string(),
-            Number(p.full_period_residual).to_string(),
-            p.floquet.unstable_pairs.to_string(),
-            p.label.map_or("", |l| l.name()).to_string(),
-            Number(p.frequency / std::f64::consts::TAU).to_string(),
-            Number(p.frequency / self.info.linear_frequency_rad_s).to_string(),
-        ];
-        record.extend(regime_fields(p.regime.as_ref()));
-        // A point without a measured motion (none today) leaves the peaks empty.
-        record.extend((0..self.info.output_dofs.len()).map(|k| {
-            p.peak_displacements
-                .get(k)
-                .map_or(String::new(), |a| Number(*a).to_string())
-        }));
+        let record = columns::csv_record(p, &self.info.columns_context());
         self.csv.append(&record)?;
         let record = serde_json::to_string(&PointRecord::from(p)).expect("serialisable");
         let err = output_error(&self.json_path);
