@@ -62,6 +62,36 @@ pub fn to_toml(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
     )))
 }
 
+/// A job-file value as a Python one (integers, floats, booleans, strings, lists, dicts): what
+/// the library declares (a family's defaults) handed to the Python layer as plain values.
+pub fn from_toml<'py>(py: Python<'py>, value: &toml::Value) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match value {
+        toml::Value::Integer(i) => i.into_pyobject(py)?.into_any(),
+        toml::Value::Float(x) => x.into_pyobject(py)?.into_any(),
+        toml::Value::Boolean(b) => PyBool::new(py, *b).to_owned().into_any(),
+        toml::Value::String(s) => PyString::new(py, s).into_any(),
+        toml::Value::Array(items) => PyList::new(
+            py,
+            items
+                .iter()
+                .map(|item| from_toml(py, item))
+                .collect::<PyResult<Vec<_>>>()?,
+        )?
+        .into_any(),
+        toml::Value::Table(table) => dict_from_table(py, table)?.into_any(),
+        toml::Value::Datetime(d) => PyString::new(py, &d.to_string()).into_any(),
+    })
+}
+
+/// A job-file table as a Python dict.
+fn dict_from_table<'py>(py: Python<'py>, table: &toml::Table) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    for (key, value) in table {
+        dict.set_item(key, from_toml(py, value)?)?;
+    }
+    Ok(dict)
+}
+
 /// One matrix as the Python layer hands it over: a 2-D float64 array, or a sparse matrix's
 /// triplets `(rows, cols, row_indices, col_indices, values)` (duplicates are summed).
 pub fn matrix_from_py(name: &'static str, value: &Bound<'_, PyAny>) -> PyResult<Matrix> {

@@ -228,3 +228,23 @@ def test_a_large_sparse_model_gets_its_lowest_modes_without_a_dense_matrix() -> 
     assert len(modes) == 20 and modes.shapes.shape == (n, 20)
     exact = 2 * np.sin(np.arange(1, 21) * np.pi / (2 * (n + 1)))
     np.testing.assert_allclose(modes.frequencies, exact, rtol=1e-9)
+
+
+def test_family_constructors_show_the_librarys_parameters_and_refuse_others() -> None:
+    """A family's constructor takes exactly the parameters the library's family struct
+    declares, in its order, keyword-only, with its defaults (help() shows them); an unknown
+    or positional argument is a TypeError before anything is built, as with a plain def."""
+    import inspect
+
+    signature = inspect.signature(nnm.von_karman_beam)
+    assert list(signature.parameters) == [
+        "elements", "length", "width", "thickness", "youngs_modulus", "density"
+    ]
+    assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in signature.parameters.values())
+    assert signature.parameters["elements"].default == 20
+    assert inspect.signature(nnm.bladed_disk).parameters["blade_stiffness_mistuning"].default == []
+    with pytest.raises(TypeError, match="unexpected keyword argument 'element'"):
+        nnm.von_karman_beam(element=10)
+    with pytest.raises(TypeError):
+        nnm.duffing(1.0)
+    assert nnm.von_karman_beam(elements=4).dofs < nnm.von_karman_beam().dofs  # the value is used

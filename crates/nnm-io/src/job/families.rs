@@ -58,6 +58,12 @@ pub fn family_defaults(family: &str) -> Option<toml::Table> {
     parse(family, &[], None).ok().map(|f| f.parameters())
 }
 
+/// The parameters `family` takes, in the order its struct declares them (`None` for an
+/// unknown family): the order front ends show them in ([`family_defaults`]' table is sorted).
+pub fn family_parameter_names(family: &str) -> Option<&'static [&'static str]> {
+    family_keys(family).ok()
+}
+
 /// Why a family's parameters were refused.
 #[derive(Debug)]
 pub(super) enum FamilyError {

@@ -7,6 +7,8 @@ refused here is refused by ``nnm run`` with the same message (without the file's
 
 from __future__ import annotations
 
+import functools
+import inspect
 import operator
 import os
 from dataclasses import dataclass, field
@@ -267,68 +269,75 @@ def backbone(
 # the same defaults (tests/test_models.py checks that they agree with the job file's).
 
 
-def bladed_disk(
-    *,
-    sectors: int = 30,
-    disk_mass: float = 1.0,
-    blade_mass: float = 0.3,
-    disk_coupling: float = 1.0,
-    blade_stiffness: float = 1.0,
-    cubic: float = 0.1,
-    blade_stiffness_mistuning: Sequence[float] | None = None,
-) -> Model:
+def _built_in_family(name: str) -> Callable[[Callable[..., dict[str, Any]]], Callable[..., Model]]:
+    """The constructor of the built-in family ``name``: its keyword parameters and their
+    defaults are the library's (``_nnm.family_defaults``, the defaults a job file naming only
+    the family gets), declared once in the core's family struct; the decorated function's
+    docstring documents them and its body prepares the given values for the library."""
+
+    def constructor(prepare: Callable[..., dict[str, Any]]) -> Callable[..., Model]:
+        signature = inspect.Signature(
+            [
+                inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, default=value,
+                                  annotation=type(value).__name__)
+                for key, value in _nnm.family_defaults(name).items()
+            ],
+            return_annotation="Model",
+        )
+
+        @functools.wraps(prepare)
+        def build(*args: Any, **parameters: Any) -> Model:
+            # A TypeError for a positional or unknown argument, as a plain signature gives.
+            given = signature.bind(*args, **parameters).arguments
+            return Model._family(name, prepare(**given))
+
+        build.__signature__ = signature  # type: ignore[attr-defined]
+        return build
+
+    return constructor
+
+
+@_built_in_family("bladed-disk")
+def bladed_disk(**parameters: Any) -> dict[str, Any]:
     """The paper's bladed disk (docs/method.md §11): ``sectors`` sectors of a disk mass
     ``disk_mass`` (M) and a blade mass ``blade_mass`` (m), disks coupled by ``disk_coupling``
     (K), each blade on its disk by a linear spring ``blade_stiffness`` (k) and a cubic one
     ``cubic`` (knl). Dof ``2i`` is the disk of sector ``i``, ``2i + 1`` its blade; cyclic, so
     modes are labelled ``(n, d)`` (Table 1 of the paper with the defaults).
 
-    ``blade_stiffness_mistuning`` (one relative deviation ``δ_i > -1`` per sector) mistunes
-    the blades, ``k_i = k (1 + δ_i)``; a mistuned disk is not cyclic (its modes are
-    unlabelled, its pairs split)."""
-    parameters = dict(locals())
-    if blade_stiffness_mistuning is not None:
-        parameters["blade_stiffness_mistuning"] = [float(d) for d in blade_stiffness_mistuning]
-    return Model._family("bladed-disk", parameters)
+    ``blade_stiffness_mistuning`` (one relative deviation ``δ_i > -1`` per sector, any
+    sequence) mistunes the blades, ``k_i = k (1 + δ_i)``; a mistuned disk is not cyclic (its
+    modes are unlabelled, its pairs split)."""
+    mistuning = parameters.get("blade_stiffness_mistuning")
+    if mistuning is not None:
+        parameters["blade_stiffness_mistuning"] = [float(d) for d in mistuning]
+    return parameters
 
 
-def duffing(*, natural_frequency: float = 1.0, cubic: float = 1.0) -> Model:
+@_built_in_family("duffing")
+def duffing(**parameters: Any) -> dict[str, Any]:
     """The Duffing oscillator ``x'' + w0^2 x + a x^3 = 0`` (``w0 = natural_frequency``,
     ``a = cubic``), whose backbone has an exact elliptic period."""
-    return Model._family("duffing", locals())
+    return parameters
 
 
-def two_dof(*, cubic: float = 0.5) -> Model:
+@_built_in_family("two-dof")
+def two_dof(**parameters: Any) -> dict[str, Any]:
     """The two-DOF system of Kerschen et al. (2009): ``x1'' + (2 x1 - x2) + c x1^3 = 0``,
     ``x2'' + (2 x2 - x1) = 0`` with ``c = cubic``."""
-    return Model._family("two-dof", locals())
+    return parameters
 
 
-def cantilever_beam(
-    *,
-    elements: int = 19,
-    length: float = 0.7,
-    width: float = 0.014,
-    height: float = 0.014,
-    youngs_modulus: float = 2.05e11,
-    density: float = 7800.0,
-    cubic: float = 6e9,
-) -> Model:
+@_built_in_family("cantilever-beam")
+def cantilever_beam(**parameters: Any) -> dict[str, Any]:
     """The ECL cantilever beam of NLvib's example 09: Euler–Bernoulli finite elements
     (deflection and rotation per node, consistent mass), clamped at one end, a cubic spring
     ``cubic`` (N/m^3) from the tip to ground. SI units."""
-    return Model._family("cantilever-beam", locals())
+    return parameters
 
 
-def von_karman_beam(
-    *,
-    elements: int = 20,
-    length: float = 1.0,
-    width: float = 0.1,
-    thickness: float = 0.01,
-    youngs_modulus: float = 70e9,
-    density: float = 2700.0,
-) -> Model:
+@_built_in_family("von-karman-beam")
+def von_karman_beam(**parameters: Any) -> dict[str, Any]:
     """A clamped-clamped von Kármán beam: axial and transverse dofs per node, with the exact
     quadratic and cubic forces of the membrane stretch. SI units."""
-    return Model._family("von-karman-beam", locals())
+    return parameters

@@ -6,6 +6,8 @@ import numpy as np
 SETTINGS_KEYS: list[str]
 __version__: str
 
+def family_defaults(family: str) -> dict[str, Any]: ...
+
 class NativeBranch: ...
 
 class NativeModel:
