@@ -1,4 +1,4 @@
-//! The command-line contract (README, "Command line"): outputs, and one-line errors with a non-zero exit for
+//! The command-line contract (README "Command line", docs/job-files.md "Running a job"): outputs, and one-line errors with a non-zero exit for
 //! bad input (never a panic).
 
 mod common;
@@ -382,7 +382,7 @@ fn run_says_where_a_branch_enters_a_tongue_and_leaves_its_family() {
     assert!(out.join("amplitude.png").exists() && out.join("amplitude.svg").exists());
 }
 
-/// README: an interrupted run loses nothing — every converged point is already in the CSV,
+/// docs/job-files.md, "Running a job": an interrupted run loses nothing — every converged point is already in the CSV,
 /// and the JSON is a valid document (status "running") holding the same points.
 #[test]
 fn interrupted_run_keeps_every_point() {

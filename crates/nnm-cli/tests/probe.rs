@@ -1,6 +1,6 @@
 //! What a probe of bad inputs and interrupts found (issue 13, item 4), each as a contract: limits
 //! and tolerances refused before any computation, exit codes a script can tell apart (README
-//! "Command line"), Ctrl-C that still writes what was finished, one run per output folder.
+//! "Command line", docs/job-files.md "Running a job"), Ctrl-C that still writes what was finished, one run per output folder.
 
 use std::path::Path;
 use std::process::{Command, Output};

@@ -1,4 +1,4 @@
-//! Job files (TOML, README "Job files"): the model, and the branches to compute.
+//! Job files (TOML, docs/job-files.md): the model, and the branches to compute.
 //!
 //! ```toml
 //! [model]

@@ -1,5 +1,5 @@
-//! Text files of polynomial force terms (the `tensor` element of job files, README "Job
-//! files"; docs/method.md eq. (57)).
+//! Text files of polynomial force terms (the `tensor` element of job files,
+//! docs/job-files.md "Finite-element models"; docs/method.md eq. (57)).
 //!
 //! One term per line: `i j k c` (quadratic, `f_i += c x_j x_k`) or `i j k l c` (cubic,
 //! `f_i += c x_j x_k x_l`), indices 1-based like Matrix Market files, whitespace-separated.

@@ -17,7 +17,7 @@ use super::schema::Parameter;
 /// (`BladedDisk` is `family = "bladed-disk"`), with its `build`.
 macro_rules! families {
     ($($variant:ident),* $(,)?) => {
-        /// A built-in model family and its parameters (README "Job files").
+        /// A built-in model family and its parameters (docs/job-files.md).
         ///
         /// Externally tagged for serde, the tag being the value of `family`: [`parse`] hands
         /// serde the name as the variant and the other keys as its struct, each value read

@@ -17,7 +17,7 @@ examples:
       --samples 50 --mistuning 0.01,0.02,0.05 --seed 1
   python -m nnm sweep examples/bladed-disk.toml --out grid/ --grid model.cubic=0.05,0.1,0.2
   python -m nnm sweep job.toml --out sweep/ --samples 200 --mistuning 0.02 \\
-      --scheduler tcp://scheduler:8786      # an existing Dask cluster (README "Sweeps")
+      --scheduler tcp://scheduler:8786      # an existing Dask cluster (crates/nnm-py/README.md, "Sweeps on Dask")
 
 The job's branches give the modes and the energy range (their limits); every branch started
 from a mode is swept unless --branch names some. Rerunning into the same --out skips the

@@ -228,7 +228,7 @@ def backbone(
     ``jacobian``, ``half_period``, ``integrator``, ``integration_factor``,
     ``stability_tolerance``, ``events``, and ``at_energies`` / ``at_frequencies``: lists of
     values (rad/s for frequencies) that get points exactly on them, ``label`` says which;
-    README "Job files"). ``branch=NAME`` instead runs a ``[[branch]]`` of the job file the
+    docs/job-files.md "Settings"). ``branch=NAME`` instead runs a ``[[branch]]`` of the job file the
     model came from, with its settings (from ``mode`` instead of the branch's own when both
     are given: what a sweep does on a mistuned disk).
 
