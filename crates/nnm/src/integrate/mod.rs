@@ -255,6 +255,28 @@ impl IntegrationMethod {
     }
 }
 
+/// Time integration: the method, and its accuracy relative to the continuation tolerance
+/// ([`IntegrationMethod::relative_tolerance`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct IntegrationSettings {
+    /// The integration method (default [`IntegrationMethod::Auto`]: chosen per branch from
+    /// the model's stiffness).
+    pub integrator: IntegrationMethod,
+    /// Integrator relative tolerance as a fraction of the continuation tolerance (default
+    /// 1e-3: the integration error must sit well below the residual Newton converges to).
+    pub integration_factor: f64,
+}
+
+impl Default for IntegrationSettings {
+    fn default() -> Self {
+        Self {
+            integrator: IntegrationMethod::Auto,
+            integration_factor: 1e-3,
+        }
+    }
+}
+
 /// Local error tolerances: a step is accepted when the scaled error norm
 /// `‖err_i / (atol_i + relative·max(|z_i|, |z_new,i|))‖_rms ≤ 1`, with `atol_i = absolute`
 /// for displacements and `absolute · velocity_scale` for velocities (velocities are a

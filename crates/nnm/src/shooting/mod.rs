@@ -23,12 +23,14 @@ mod matrix_free;
 mod monodromy;
 mod motion;
 mod point;
+mod settings;
 mod shift;
 mod start;
 
 pub use matrix_free::MatrixFreeJacobian;
 pub use motion::{CONTENT_HARMONICS, MOTION_SAMPLES, Motion};
 pub use point::{BranchPoint, PointLabel};
+pub use settings::{OutputSettings, SettingsView, ShootingSettings, StartSettings};
 pub use shift::{ShiftSymmetry, Travel};
 pub use start::{Start, StartError};
 
@@ -39,7 +41,6 @@ use crate::integrate::{
 };
 use crate::linalg::{self, Mat};
 use crate::model::{Block, BlockMut, MechanicalSystem};
-use crate::settings::Settings;
 
 /// How the time-shift freedom of an autonomous periodic orbit is removed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -308,9 +309,15 @@ pub struct ShootingSetup {
 }
 
 impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
-    /// The problem of one branch, integrated by the settings' explicit Runge–Kutta method
-    /// ([`Self::with_integrator`] plugs another in).
-    pub fn new(system: &'a S, setup: ShootingSetup, settings: &Settings) -> Self {
+    /// The problem of one branch, integrated by the settings' method
+    /// ([`IntegrationMethod::resolve`] for `auto`; [`Self::with_integrator`] plugs another
+    /// in). `settings`: a `&Settings`, or the groups it reads borrowed in a [`SettingsView`].
+    pub fn new<'s>(
+        system: &'a S,
+        setup: ShootingSetup,
+        settings: impl Into<SettingsView<'s>>,
+    ) -> Self {
+        let settings = settings.into();
         let ShootingSetup {
             basis,
             mass_basis,
