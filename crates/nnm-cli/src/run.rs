@@ -8,6 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow, bail};
 use nnm::analysis::{RegimeKind, regime_changes};
 use nnm::bifurcation::{Event, switch_branch};
+use nnm::integrate::IntegrationMethod;
 use nnm::model::Structure;
 use nnm::modes::{LinearMode, add_labelled_mode, linear_modes};
 use nnm::shooting::{EvaluationProgress, Travel};
@@ -599,9 +600,15 @@ pub fn compute_branch(
                 .filter(|d| d.is_finite())
                 .fold(0.0, f64::max);
             if defect > RECIPROCITY_WARNING {
+                let damping: Vec<&str> = IntegrationMethod::ALL
+                    .into_iter()
+                    .filter(|m| m.damps_unresolved_modes())
+                    .map(IntegrationMethod::name)
+                    .collect();
                 eprintln!(
-                    "[{}] warning: Floquet multipliers lack reciprocal partners by up to {defect:.1e}: the integrator damps modes it does not resolve (radau5 does by design), so the stability verdicts see only the resolved modes",
-                    info.name
+                    "[{}] warning: Floquet multipliers lack reciprocal partners by up to {defect:.1e}: the integrator damps modes it does not resolve ({} does by design), so the stability verdicts see only the resolved modes",
+                    info.name,
+                    damping.join(", ")
                 );
             }
             Ok(branch)

@@ -358,7 +358,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             Formulation::MatrixFree => (true, None),
             Formulation::Auto => (
                 !complete_basis
-                    || (method == IntegrationMethod::Radau5
+                    || (method.damps_unresolved_modes()
                         && system.tangent_pattern().is_some()
                         && shift.as_ref().is_none_or(|s| s.diagonal(0).is_some())),
                 None,
@@ -374,14 +374,13 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         // Matrix-free shooting replays a collocation method's linearised steps; a model that
         // only needs it for its size (not stiff: a disk of thousands of sectors) gets the
         // symplectic one, which neither damps nor amplifies any mode (docs/method.md §15).
-        let method = if matrix_free
-            && settings.integration.integrator == IntegrationMethod::Auto
-            && !method.is_collocation()
-        {
-            IntegrationMethod::Gauss6
-        } else {
-            method
-        };
+        let method =
+            if matrix_free && settings.integration.integrator.is_auto() && !method.is_collocation()
+            {
+                IntegrationMethod::Gauss6
+            } else {
+                method
+            };
         let (matrix_free, unsupported) = if matrix_free {
             match matrix_free::MatrixFree::new(
                 system,
@@ -438,10 +437,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             unsupported,
             basis_modes,
             output_dofs,
-            equal_steps: matches!(
-                method,
-                IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 | IntegrationMethod::Radau5
-            ),
+            equal_steps: method.is_collocation(),
         }
     }
 
