@@ -20,7 +20,8 @@
 //! - [`bifurcation`]: folds, branch points, period doublings and Krein collisions located
 //!   between points (an event detector the continuation calls), and branch switching;
 //! - [`branch`]: one NNM branch end to end, with limits and an observer;
-//! - [`settings`]: the nested, validated settings of a branch;
+//! - [`settings`]: the settings of a branch, each group defined beside the layer that reads
+//!   it and gathered here, validated;
 //! - [`symmetry`], [`analysis`]: mirror symmetry of cyclic structures; harmonics, shape change
 //!   and localization of computed NNMs.
 //!

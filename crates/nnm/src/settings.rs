@@ -1,5 +1,10 @@
-//! The settings of a branch, nested by the layer that uses them, with their defaults and
-//! validation in one place.
+//! The settings of a branch, gathered: each group is defined, with its defaults, beside the
+//! layer that reads it ([`ContinuationSettings`] in `continuation`, [`ShootingSettings`],
+//! [`StartSettings`] and [`OutputSettings`] in `shooting`, [`IntegrationSettings`] in
+//! `integrate`, [`StabilitySettings`] in `floquet`); the branch's own limits and requests are
+//! here, since only the branch above reads them. [`Settings`] nests them all and validates
+//! them in one place, and the group types are re-exported so that `nnm::settings::X` names
+//! every one.
 //!
 //! Job files write them flat (`tolerance = 1e-8`, `max_step = 0.25`, ...): every group is
 //! flattened for serde, and [`Settings::KEYS`] lists the accepted keys so a front end can
@@ -7,7 +12,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::integrate::IntegrationMethod;
+pub use crate::continuation::{ContinuationSettings, MIN_TOLERANCE, SettingsError};
+pub use crate::floquet::StabilitySettings;
+pub use crate::integrate::IntegrationSettings;
+pub use crate::shooting::{OutputSettings, SettingsView, ShootingSettings, StartSettings};
 
 /// All settings of a branch.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -67,91 +75,6 @@ pub struct Requests {
     pub at_frequencies: Vec<f64>,
 }
 
-/// Pseudo-arclength continuation (docs/method.md §5).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct ContinuationSettings {
-    /// Convergence tolerance `ε` of the corrector on the problem's relative residual
-    /// (eq. (19); default 1e-8; from [`MIN_TOLERANCE`] to 1e-2).
-    pub tolerance: f64,
-    /// First step, relative to the starting amplitude (default 0.1).
-    pub initial_step: f64,
-    /// Smallest step, relative to the amplitude, before giving up (default 1e-6).
-    pub min_step: f64,
-    /// Largest step, relative to the amplitude (default 0.25: the energy grows by at most
-    /// ~60% a step, which keeps a frequency–energy plot resolved).
-    pub max_step: f64,
-    /// Newton iterations allowed per step (default 8).
-    pub max_iterations: usize,
-    /// Corrector iterations the step control aims at (default 3).
-    pub target_iterations: usize,
-    /// Largest angle between consecutive tangents, radians (default 0.5 ≈ 29°).
-    pub max_turn_angle: f64,
-}
-
-/// How a branch starts from a linear mode.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct StartSettings {
-    /// Linear energy of the first guess; `None`: where the nonlinear forces are 1e-4 of the
-    /// linear ones along the mode.
-    pub energy_start: Option<f64>,
-    /// On cyclic models with a verified mirror symmetry, keep the unknowns in the starting
-    /// mode's symmetry class (default true).
-    pub symmetry: bool,
-}
-
-/// The shooting problem (docs/method.md §2–4).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct ShootingSettings {
-    /// How the time shift is removed: zero velocity (default, docs/method.md eq. (7)) or
-    /// flow-orthogonal (eq. (8)).
-    pub phase: crate::shooting::PhaseCondition,
-    /// Jacobian from the variational equations (default, docs/method.md eqs. (11)–(13)) or from
-    /// finite differences (eq. (32)).
-    pub jacobian: crate::shooting::JacobianMethod,
-    /// Shoot over half a period when the system is odd (checked at sample states; default
-    /// true). Every point's full-period residual is still checked.
-    pub half_period: bool,
-    /// Dense Jacobian and monodromy, or matrix-free Newton–Krylov (docs/method.md §15);
-    /// default: chosen by size ([`crate::shooting::Formulation::Auto`]).
-    pub formulation: crate::shooting::Formulation,
-}
-
-/// Time integration.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct IntegrationSettings {
-    /// Runge–Kutta pair of the time integration (default DOP853).
-    pub integrator: IntegrationMethod,
-    /// Integrator relative tolerance as a fraction of the continuation tolerance (default
-    /// 1e-3: the integration error must sit well below the residual Newton converges to).
-    pub integration_factor: f64,
-}
-
-/// What is measured of every point's motion (docs/method.md §18).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(default)]
-pub struct OutputSettings {
-    /// Dofs (0-based, in the model's numbering after `fixed_dofs`) whose peak displacement
-    /// over the period is measured at every point; empty (default): the dof where the
-    /// starting mode's amplitude is largest.
-    pub output_dofs: Vec<usize>,
-}
-
-/// Floquet stability and bifurcation events.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct StabilitySettings {
-    /// Tolerance on `|μ| - 1` for calling a point stable (default
-    /// [`crate::floquet::DEFAULT_STABILITY_TOLERANCE`]).
-    pub stability_tolerance: f64,
-    /// Detect folds, branch points, period doublings and Krein collisions between points and
-    /// locate them (default true).
-    pub events: bool,
-}
-
 impl Default for Limits {
     fn default() -> Self {
         Self {
@@ -162,67 +85,18 @@ impl Default for Limits {
     }
 }
 
-impl Default for ContinuationSettings {
-    fn default() -> Self {
+impl<'s> From<&'s Settings> for SettingsView<'s> {
+    fn from(settings: &'s Settings) -> Self {
         Self {
-            tolerance: 1e-8,
-            initial_step: 0.1,
-            min_step: 1e-6,
-            max_step: 0.25,
-            max_iterations: 8,
-            target_iterations: 3,
-            max_turn_angle: 0.5,
+            shooting: &settings.shooting,
+            start: &settings.start,
+            output: &settings.output,
+            integration: &settings.integration,
+            continuation: &settings.continuation,
+            stability: &settings.stability,
         }
     }
 }
-
-impl Default for StartSettings {
-    fn default() -> Self {
-        Self {
-            energy_start: None,
-            symmetry: true,
-        }
-    }
-}
-
-impl Default for ShootingSettings {
-    fn default() -> Self {
-        Self {
-            phase: crate::shooting::PhaseCondition::ZeroVelocity,
-            jacobian: crate::shooting::JacobianMethod::Sensitivity,
-            half_period: true,
-            formulation: crate::shooting::Formulation::Auto,
-        }
-    }
-}
-
-impl Default for IntegrationSettings {
-    fn default() -> Self {
-        Self {
-            integrator: IntegrationMethod::Auto,
-            integration_factor: 1e-3,
-        }
-    }
-}
-
-impl Default for StabilitySettings {
-    fn default() -> Self {
-        Self {
-            stability_tolerance: crate::floquet::DEFAULT_STABILITY_TOLERANCE,
-            events: true,
-        }
-    }
-}
-
-/// The smallest `tolerance` accepted: the relative residual of a period integrated in double
-/// precision does not fall much below 1e-15 (round-off of the state and of every step), so a
-/// smaller tolerance cannot be met and would only end in a failed first point.
-pub const MIN_TOLERANCE: f64 = 1e-14;
-
-/// A setting out of its range.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("invalid setting: {0}")]
-pub struct SettingsError(pub String);
 
 impl Settings {
     /// The keys of the flat (job-file) form, every group's fields.

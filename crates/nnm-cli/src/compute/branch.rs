@@ -6,6 +6,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::Result;
+use nnm::integrate::IntegrationMethod;
 use nnm::model::Structure;
 use nnm::{Branch, BranchPoint, Start, StopReason, continue_branch_observed};
 use nnm_io::job::BranchJob;
@@ -78,9 +79,15 @@ pub fn compute_branch(
                 .filter(|d| d.is_finite())
                 .fold(0.0, f64::max);
             if defect > RECIPROCITY_WARNING {
+                let damping: Vec<&str> = IntegrationMethod::ALL
+                    .into_iter()
+                    .filter(|m| m.damps_unresolved_modes())
+                    .map(IntegrationMethod::name)
+                    .collect();
                 eprintln!(
-                    "[{}] warning: Floquet multipliers lack reciprocal partners by up to {defect:.1e}: the integrator damps modes it does not resolve (radau5 does by design), so the stability verdicts see only the resolved modes",
-                    info.name
+                    "[{}] warning: Floquet multipliers lack reciprocal partners by up to {defect:.1e}: the integrator damps modes it does not resolve ({} does by design), so the stability verdicts see only the resolved modes",
+                    info.name,
+                    damping.join(", ")
                 );
             }
             Ok(branch)

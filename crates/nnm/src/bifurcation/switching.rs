@@ -23,8 +23,7 @@
 use crate::bifurcation::{Event, EventKind};
 use crate::linalg::{self, Mat};
 use crate::model::MechanicalSystem;
-use crate::settings::Settings;
-use crate::shooting::{PhaseCondition, Shooting, Start};
+use crate::shooting::{PhaseCondition, SettingsView, Shooting, Start};
 
 struct Candidate<'a, S: MechanicalSystem + ?Sized> {
     start: Start,
@@ -94,14 +93,15 @@ const NULL_THRESHOLD: f64 = 1e-4;
 /// degenerate event (several null directions beside the parent's tangent, e.g. where a
 /// symmetry doubles the critical pair) `direction` picks one (0-based, in the order of the
 /// singular values); each may lead to a different family.
-pub fn switch_branch<S: MechanicalSystem + ?Sized>(
+pub fn switch_branch<'s, S: MechanicalSystem + ?Sized>(
     system: &S,
     parent: &Start,
     event: &Event,
-    settings: &Settings,
+    settings: impl Into<SettingsView<'s>>,
     amplitude: f64,
     direction: usize,
 ) -> Result<Switch, SwitchError> {
+    let settings = settings.into();
     let multiple = match event.kind {
         EventKind::BranchPoint => 1.0,
         EventKind::PeriodDoubling => 2.0,

@@ -6,11 +6,10 @@ use super::corrector::{Corrected, correct};
 use super::predictor::{predict, tangent};
 use super::step::StepControl;
 use super::{
-    BoxError, ContinuationError, ContinuationProblem, ContinuationStats, Detail, EventDetector,
-    Solution,
+    BoxError, ContinuationError, ContinuationProblem, ContinuationSettings, ContinuationStats,
+    Detail, EventDetector, Solution,
 };
 use crate::linalg;
-use crate::settings::ContinuationSettings;
 
 /// What the iterator yields: points in branch order, each event just before the point that
 /// follows it.

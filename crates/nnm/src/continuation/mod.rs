@@ -14,9 +14,11 @@
 pub mod corrector;
 mod iterator;
 pub mod predictor;
+mod settings;
 pub mod step;
 
 pub use iterator::{Continuation, Item, Segment};
+pub use settings::{ContinuationSettings, MIN_TOLERANCE, SettingsError};
 
 /// A linearisation of `F` at one `u`: the residual and the solution of bordered systems
 /// `[J; bᵀ] x = [r; c]` (eqs. (20)–(23)): by dense least squares, or by GMRES on a square
@@ -125,7 +127,7 @@ impl<P: ContinuationProblem, D: EventDetector<P>> EventDetector<P> for Option<D>
 pub enum ContinuationError {
     /// A setting is out of range (`Settings::validate`).
     #[error(transparent)]
-    Settings(#[from] crate::settings::SettingsError),
+    Settings(#[from] SettingsError),
     /// The first point could not be computed: a bad first guess or pin, or its corrector
     /// (docs/method.md eq. (23)) or the problem failed; holds the cause (shown in the message,
     /// so not also chained as a `source`, which would print it twice).

@@ -2,7 +2,7 @@
 //! corrector converges in fewer iterations than the target and shrink when it needs more, and
 //! are halved on any failure until the minimum step.
 
-use crate::settings::ContinuationSettings;
+use super::ContinuationSettings;
 
 /// The arclength step of a continuation and its bounds.
 #[derive(Debug, Clone)]

@@ -1,7 +1,6 @@
 //! The continuation machinery on problems with exact answers, independent of shooting.
 
 use super::*;
-use crate::settings::ContinuationSettings;
 
 /// `F(x, y) = x² + y² - 1`: the unit circle, one row and two unknowns.
 struct Circle {

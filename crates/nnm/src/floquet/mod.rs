@@ -14,6 +14,29 @@ use crate::linalg::{self, Complex, LinalgError, Mat};
 /// instabilities worth reporting grow faster than 1e-4 per period.
 pub const DEFAULT_STABILITY_TOLERANCE: f64 = 1e-4;
 
+/// Floquet stability and bifurcation events: the tolerance of a point's verdict, which the
+/// shooting problem applies to every point, and whether the branch looks for events between
+/// points (docs/method.md §7–8).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct StabilitySettings {
+    /// Tolerance on `|μ| - 1` for calling a point stable (default
+    /// [`DEFAULT_STABILITY_TOLERANCE`]).
+    pub stability_tolerance: f64,
+    /// Detect folds, branch points, period doublings and Krein collisions between points and
+    /// locate them (default true).
+    pub events: bool,
+}
+
+impl Default for StabilitySettings {
+    fn default() -> Self {
+        Self {
+            stability_tolerance: DEFAULT_STABILITY_TOLERANCE,
+            events: true,
+        }
+    }
+}
+
 /// Multipliers of one periodic motion.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Floquet {

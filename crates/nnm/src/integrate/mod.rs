@@ -227,13 +227,62 @@ impl IntegrationMethod {
         }
     }
 
+    /// Every variant, in declaration order.
+    pub const ALL: [IntegrationMethod; 6] = [
+        IntegrationMethod::Auto,
+        IntegrationMethod::Dop853,
+        IntegrationMethod::Dopri5,
+        IntegrationMethod::Gauss4,
+        IntegrationMethod::Gauss6,
+        IntegrationMethod::Radau5,
+    ];
+
+    /// The method's name in job files and settings (serde's kebab-case spelling), for
+    /// messages that name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegrationMethod::Auto => "auto",
+            IntegrationMethod::Dop853 => "dop853",
+            IntegrationMethod::Dopri5 => "dopri5",
+            IntegrationMethod::Gauss4 => "gauss4",
+            IntegrationMethod::Gauss6 => "gauss6",
+            IntegrationMethod::Radau5 => "radau5",
+        }
+    }
+
+    /// Left to the branch: [`Self::resolve`] picks the method from the model's stiffness, and
+    /// shooting may still trade it for one its formulation needs (a collocation method for
+    /// matrix-free shooting). A method named by the user is kept as it is.
+    pub fn is_auto(self) -> bool {
+        self == IntegrationMethod::Auto
+    }
+
     /// A collocation method (Gauss–Legendre, Radau IIA): implicit, and able to record its
-    /// linearised steps for matrix-free shooting.
+    /// linearised steps for matrix-free shooting. Its steps are equal, their number set from
+    /// a global error estimate over the horizon ([`Self::relative_tolerance`]), so a
+    /// converged point's motion can be sampled on the shooting's own step.
     pub fn is_collocation(self) -> bool {
         matches!(
             self,
             IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 | IntegrationMethod::Radau5
         )
+    }
+
+    /// Symplectic (Gauss–Legendre): `|R(iωh)| = 1`, so every mode, resolved or not, keeps its
+    /// multipliers on the unit circle — neither damped nor amplified, only its phase aliased
+    /// when unresolved (docs/method.md §6). The choice when nothing may be damped.
+    pub fn is_symplectic(self) -> bool {
+        matches!(self, IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6)
+    }
+
+    /// Damps the modes its step does not resolve (Radau IIA, L-stable: `R(∞) = 0`;
+    /// docs/method.md §6, "Aliasing, and the damping collocation"). Their multipliers fall
+    /// inside the unit circle without reciprocal partners, so stability sees only the
+    /// resolved modes; and their block of `Φ(T)` is numerically zero, so GMRES on `Φ − I`
+    /// converges in about the rank of the resolved modes (docs/method.md §15), which makes
+    /// matrix-free shooting the cheaper formulation.
+    pub fn damps_unresolved_modes(self) -> bool {
+        self == IntegrationMethod::Radau5
     }
 
     /// The integrator of this method for `system` (`Auto` unresolved: DOP853; resolve first).
@@ -250,6 +299,28 @@ impl IntegrationMethod {
             IntegrationMethod::Gauss4 => Box::new(GaussLegendre::new(system, &GAUSS4, tolerances)),
             IntegrationMethod::Gauss6 => Box::new(GaussLegendre::new(system, &GAUSS6, tolerances)),
             IntegrationMethod::Radau5 => Box::new(GaussLegendre::new(system, &RADAU5, tolerances)),
+        }
+    }
+}
+
+/// Time integration: the method, and its accuracy relative to the continuation tolerance
+/// ([`IntegrationMethod::relative_tolerance`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct IntegrationSettings {
+    /// The integration method (default [`IntegrationMethod::Auto`]: chosen per branch from
+    /// the model's stiffness).
+    pub integrator: IntegrationMethod,
+    /// Integrator relative tolerance as a fraction of the continuation tolerance (default
+    /// 1e-3: the integration error must sit well below the residual Newton converges to).
+    pub integration_factor: f64,
+}
+
+impl Default for IntegrationSettings {
+    fn default() -> Self {
+        Self {
+            integrator: IntegrationMethod::Auto,
+            integration_factor: 1e-3,
         }
     }
 }

@@ -23,12 +23,14 @@ mod matrix_free;
 mod monodromy;
 mod motion;
 mod point;
+mod settings;
 mod shift;
 mod start;
 
 pub use matrix_free::MatrixFreeJacobian;
 pub use motion::{CONTENT_HARMONICS, MOTION_SAMPLES, Motion};
 pub use point::{BranchPoint, PointLabel};
+pub use settings::{OutputSettings, SettingsView, ShootingSettings, StartSettings};
 pub use shift::{ShiftSymmetry, Travel};
 pub use start::{Start, StartError};
 
@@ -39,7 +41,6 @@ use crate::integrate::{
 };
 use crate::linalg::{self, Mat};
 use crate::model::{Block, BlockMut, MechanicalSystem};
-use crate::settings::Settings;
 
 /// How the time-shift freedom of an autonomous periodic orbit is removed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -308,9 +309,15 @@ pub struct ShootingSetup {
 }
 
 impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
-    /// The problem of one branch, integrated by the settings' explicit Runge–Kutta method
-    /// ([`Self::with_integrator`] plugs another in).
-    pub fn new(system: &'a S, setup: ShootingSetup, settings: &Settings) -> Self {
+    /// The problem of one branch, integrated by the settings' method
+    /// ([`IntegrationMethod::resolve`] for `auto`; [`Self::with_integrator`] plugs another
+    /// in). `settings`: a `&Settings`, or the groups it reads borrowed in a [`SettingsView`].
+    pub fn new<'s>(
+        system: &'a S,
+        setup: ShootingSetup,
+        settings: impl Into<SettingsView<'s>>,
+    ) -> Self {
+        let settings = settings.into();
         let ShootingSetup {
             basis,
             mass_basis,
@@ -351,7 +358,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             Formulation::MatrixFree => (true, None),
             Formulation::Auto => (
                 !complete_basis
-                    || (method == IntegrationMethod::Radau5
+                    || (method.damps_unresolved_modes()
                         && system.tangent_pattern().is_some()
                         && shift.as_ref().is_none_or(|s| s.diagonal(0).is_some())),
                 None,
@@ -367,14 +374,13 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
         // Matrix-free shooting replays a collocation method's linearised steps; a model that
         // only needs it for its size (not stiff: a disk of thousands of sectors) gets the
         // symplectic one, which neither damps nor amplifies any mode (docs/method.md §15).
-        let method = if matrix_free
-            && settings.integration.integrator == IntegrationMethod::Auto
-            && !method.is_collocation()
-        {
-            IntegrationMethod::Gauss6
-        } else {
-            method
-        };
+        let method =
+            if matrix_free && settings.integration.integrator.is_auto() && !method.is_collocation()
+            {
+                IntegrationMethod::Gauss6
+            } else {
+                method
+            };
         let (matrix_free, unsupported) = if matrix_free {
             match matrix_free::MatrixFree::new(
                 system,
@@ -431,10 +437,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             unsupported,
             basis_modes,
             output_dofs,
-            equal_steps: matches!(
-                method,
-                IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 | IntegrationMethod::Radau5
-            ),
+            equal_steps: method.is_collocation(),
         }
     }
 

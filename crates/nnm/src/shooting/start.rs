@@ -2,11 +2,10 @@
 //! a first guess — from a linear mode of any [`MechanicalSystem`], or from a user's state and
 //! period.
 
-use super::{PhaseCondition, ShiftSymmetry, Shooting, ShootingSetup, Travel};
+use super::{PhaseCondition, SettingsView, ShiftSymmetry, Shooting, ShootingSetup, Travel};
 use crate::linalg;
 use crate::model::MechanicalSystem;
 use crate::modes::{LinearMode, ModesError, StandingWave, linear_modes};
-use crate::settings::Settings;
 use crate::symmetry::{Parity, invariant_class, is_odd, parity_of, sample_states};
 
 /// Where a branch starts.
@@ -160,13 +159,14 @@ impl Start {
     /// The start of a branch as a job asks for it: the standing wave of mode `index`,
     /// restricted to its symmetry class unless `settings.start.symmetry` is off, or with
     /// `travel` the travelling wave of its pair; at `settings.start.energy_start` if given.
-    pub fn for_branch<S: MechanicalSystem + ?Sized>(
+    pub fn for_branch<'s, S: MechanicalSystem + ?Sized>(
         system: &S,
         modes: &[LinearMode],
         index: usize,
         travel: Option<Travel>,
-        settings: &Settings,
+        settings: impl Into<SettingsView<'s>>,
     ) -> Result<Self, StartError> {
+        let settings = settings.into();
         let energy = settings.start.energy_start;
         if let Some(travel) = travel {
             if settings.shooting.formulation == super::Formulation::MatrixFree {
@@ -329,11 +329,12 @@ impl Start {
 
     /// The shooting problem of a branch from this start: its unknowns, scales and settings
     /// (half-period shooting only for odd systems under the zero-velocity phase condition).
-    pub fn shooting<'a, S: MechanicalSystem + ?Sized>(
+    pub fn shooting<'a, 's, S: MechanicalSystem + ?Sized>(
         &self,
         system: &'a S,
-        settings: &Settings,
+        settings: impl Into<SettingsView<'s>>,
     ) -> Shooting<'a, S> {
+        let settings = settings.into();
         let phase = self.phase.unwrap_or(settings.shooting.phase);
         let setup = ShootingSetup {
             basis: self.basis.clone(),
@@ -364,7 +365,8 @@ impl Start {
 
     /// The dofs whose peak displacements every point of the branch records: the settings'
     /// `output_dofs`, or the [`Self::reference_dof`].
-    pub fn output_dofs(&self, settings: &Settings) -> Vec<usize> {
+    pub fn output_dofs<'s>(&self, settings: impl Into<SettingsView<'s>>) -> Vec<usize> {
+        let settings = settings.into();
         if settings.output.output_dofs.is_empty() {
             vec![self.reference_dof]
         } else {
