@@ -46,6 +46,7 @@ fn _nnm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeBranch>()?;
     m.add_function(wrap_pyfunction!(family_defaults, m)?)?;
     m.add("SETTINGS_KEYS", nnm::Settings::KEYS.to_vec())?;
+    m.add("POINT_COLUMNS", results::point_columns())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

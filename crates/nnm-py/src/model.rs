@@ -10,6 +10,7 @@ use nnm::model::{CyclicSymmetry, Matrix, Structure};
 use nnm::modes::{LinearMode, linear_modes};
 use nnm::{Branch, MechanicalSystem, Start, StopReason};
 use nnm_io::job::{BranchBody, BranchJob};
+use nnm_io::output::columns::BranchContext;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
@@ -374,9 +375,13 @@ impl NativeModel {
         out.set_item("wall_time", wall_time)?;
         let output_dofs = start.output_dofs(settings);
         out.set_item("output_dofs", output_dofs.clone())?;
+        let context = BranchContext {
+            linear_frequency_rad_s: start.omega,
+            output_dofs: &output_dofs,
+        };
         let branch = match result {
             Ok(branch) => {
-                branch_dict(py, &branch, output_dofs.len(), &out)?;
+                branch_dict(py, &branch, &context, &out)?;
                 let stopped_by_callback =
                     observer.stopped && branch.stop == StopReason::Interrupted;
                 out.set_item(
@@ -403,7 +408,7 @@ impl NativeModel {
                     omega: start.omega,
                     missed_requests: Vec::new(),
                 };
-                branch_dict(py, &empty, output_dofs.len(), &out)?;
+                branch_dict(py, &empty, &context, &out)?;
                 out.set_item("stop", e.to_string())?;
                 out.set_item("stop_kind", "first-point")?;
                 out.set_item("error", e.to_string())?;

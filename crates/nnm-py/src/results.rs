@@ -1,13 +1,135 @@
 //! Results as Python values: a branch's points as numpy columns with its events, stop and
 //! counters, linear modes as arrays, and the names Python sees for patterns and stop reasons.
 
-use nnm::analysis::ModalComponent;
 use nnm::modes::{LinearMode, StandingWave};
 use nnm::{Branch, BranchPoint, StopReason};
+use nnm_io::output::columns::{BranchContext, Fields, Kind, POINT_COLUMNS, PointColumn, Value};
 use numpy::ndarray::Array2;
 use numpy::{Complex64, IntoPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyComplex, PyDict, PyList};
+
+/// `(key, name, unit, doc, kind, csv, per_output_dof)` of a point column.
+pub type ColumnInfo = (
+    &'static str,
+    &'static str,
+    &'static str,
+    &'static str,
+    &'static str,
+    bool,
+    bool,
+);
+
+/// The point columns as the Python `Branch` reads them (`_nnm.POINT_COLUMNS`), in declaration
+/// order: `kind` is one of [`kind_name`]'s words, `name` the CSV header (`<d>` standing for the
+/// dof where `per_output_dof`), `csv` whether `<name>.csv` (and so `Branch.to_pandas()`) has it.
+pub fn point_columns() -> Vec<ColumnInfo> {
+    POINT_COLUMNS
+        .iter()
+        .map(|c| {
+            let per_output_dof = matches!(c.fields, Fields::PerOutputDof(_));
+            (
+                c.key,
+                c.name,
+                c.unit,
+                c.doc,
+                kind_name(c.kind),
+                c.csv,
+                per_output_dof,
+            )
+        })
+        .collect()
+}
+
+/// The name Python sees for a column's kind.
+fn kind_name(kind: Kind) -> &'static str {
+    match kind {
+        Kind::Float => "float",
+        Kind::Integer => "integer",
+        Kind::OptionalInteger => "optional-integer",
+        Kind::Bool => "bool",
+        Kind::Text => "text",
+    }
+}
+
+/// One column's array: `float64` for a float (NaN where a point has no value) and for a count
+/// a point may lack, `int64` for one every point has, `bool`, a list of `str` for text (`""`
+/// where a point has none); a column with a field per output dof is `points × output_dofs`.
+fn point_column<'py>(
+    py: Python<'py>,
+    column: &PointColumn,
+    points: &[BranchPoint],
+    context: &BranchContext<'_>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let values = |p: &BranchPoint| column.values(p, context);
+    if let Fields::PerOutputDof(_) = column.fields {
+        let rows: Vec<Vec<f64>> = points
+            .iter()
+            .map(|p| values(p).iter().map(|v| as_float(column, v)).collect())
+            .collect();
+        let width = context.output_dofs.len();
+        let array = Array2::from_shape_fn((points.len(), width), |(k, d)| rows[k][d]);
+        return Ok(array.into_pyarray(py).into_any());
+    }
+    let fields = points.iter().map(|p| {
+        let mut v = values(p);
+        debug_assert_eq!(v.len(), 1);
+        v.swap_remove(0)
+    });
+    Ok(match column.kind {
+        Kind::Float | Kind::OptionalInteger => {
+            let array: Vec<f64> = fields.map(|v| as_float(column, &v)).collect();
+            array.into_pyarray(py).into_any()
+        }
+        Kind::Integer => {
+            let array: Vec<i64> = fields
+                .map(|v| match v {
+                    Value::Integer(n) => n as i64,
+                    other => mismatch(column, &other),
+                })
+                .collect();
+            array.into_pyarray(py).into_any()
+        }
+        Kind::Bool => {
+            let array: Vec<bool> = fields
+                .map(|v| match v {
+                    Value::Bool(b) => b,
+                    other => mismatch(column, &other),
+                })
+                .collect();
+            array.into_pyarray(py).into_any()
+        }
+        Kind::Text => {
+            let list: Vec<String> = fields
+                .map(|v| match v {
+                    Value::Text(s) => s,
+                    Value::Empty => String::new(),
+                    other => mismatch(column, &other),
+                })
+                .collect();
+            list.into_pyobject(py)?.into_any()
+        }
+    })
+}
+
+/// A float column's value, or a count's as a float; NaN where the point has none.
+fn as_float(column: &PointColumn, value: &Value) -> f64 {
+    match value {
+        Value::Float(x) => *x,
+        Value::Integer(n) => *n as f64,
+        Value::Empty => f64::NAN,
+        other => mismatch(column, other),
+    }
+}
+
+/// A field not of its column's declared kind: a mistake in `POINT_COLUMNS` (its test
+/// `every_field_is_of_its_columns_kind` keeps it out).
+fn mismatch(column: &PointColumn, value: &Value) -> ! {
+    panic!(
+        "point column `{}` is declared {:?} but a point gives {value:?}",
+        column.name, column.kind
+    )
+}
 
 pub fn wave_name(pattern: Option<StandingWave>) -> Option<&'static str> {
     pattern.map(|p| match p {
@@ -52,88 +174,18 @@ pub fn stop_kind(stop: &StopReason) -> &'static str {
 }
 
 /// The branch's points as columns (numpy arrays), its events, stop reason and counters, into
-/// `out`. Multipliers are a `points × m` complex array (NaN where a point has fewer); peak
-/// displacements `points × output_dofs`; the regime's partner columns NaN (strings empty)
-/// where a point has no partner.
+/// `out`. One array per declared point column ([`point_column`]); multipliers are a
+/// `points × m` complex array (NaN where a point has fewer).
 pub fn branch_dict<'py>(
     py: Python<'py>,
     branch: &Branch,
-    output_dofs: usize,
+    context: &BranchContext<'_>,
     out: &Bound<'py, PyDict>,
 ) -> PyResult<()> {
     let points = &branch.points;
-    type Column = (&'static str, fn(&BranchPoint) -> f64);
-    let columns: [Column; 9] = [
-        ("energy", |p| p.energy),
-        ("frequency", |p| p.frequency),
-        ("period", |p| p.period),
-        ("energy_slope", |p| p.energy_slope),
-        ("max_floquet_modulus", |p| p.floquet.max_modulus),
-        ("relative_residual", |p| p.relative_residual),
-        ("full_period_residual", |p| p.full_period_residual),
-        ("reciprocity_defect", |p| p.floquet.reciprocity_defect),
-        ("step", |p| p.step),
-    ];
-    for (name, value) in columns {
-        let values: Vec<f64> = points.iter().map(value).collect();
-        out.set_item(name, values.into_pyarray(py))?;
+    for column in POINT_COLUMNS {
+        out.set_item(column.key, point_column(py, column, points, context)?)?;
     }
-    type Count = (&'static str, fn(&BranchPoint) -> usize);
-    let counts: [Count; 3] = [
-        ("index", |p| p.index),
-        ("iterations", |p| p.iterations),
-        ("unstable_pairs", |p| p.floquet.unstable_pairs),
-    ];
-    for (name, value) in counts {
-        let values: Vec<i64> = points.iter().map(|p| value(p) as i64).collect();
-        out.set_item(name, values.into_pyarray(py))?;
-    }
-    let stable: Vec<bool> = points.iter().map(|p| p.floquet.stable).collect();
-    out.set_item("stable", stable.into_pyarray(py))?;
-    let labels: Vec<&str> = points
-        .iter()
-        .map(|p| p.label.map_or("", |l| l.name()))
-        .collect();
-    out.set_item("label", labels)?;
-    let peaks = Array2::from_shape_fn((points.len(), output_dofs), |(k, d)| {
-        points[k]
-            .peak_displacements
-            .get(d)
-            .copied()
-            .unwrap_or(f64::NAN)
-    });
-    out.set_item("peak_displacement", peaks.into_pyarray(py))?;
-    let regimes: Vec<&str> = points
-        .iter()
-        .map(|p| p.regime.map_or("", |r| r.kind.name()))
-        .collect();
-    out.set_item("regime", regimes)?;
-    type Partner = (&'static str, fn(&ModalComponent) -> f64);
-    let partner_columns: [Partner; 3] = [
-        ("partner_mode", |c| c.mode as f64),
-        ("partner_harmonic", |c| c.harmonic as f64),
-        ("partner_share", |c| c.share),
-    ];
-    for (name, value) in partner_columns {
-        let values: Vec<f64> = points
-            .iter()
-            .map(|p| {
-                p.regime
-                    .and_then(|r| r.partner)
-                    .map_or(f64::NAN, |c| value(&c))
-            })
-            .collect();
-        out.set_item(name, values.into_pyarray(py))?;
-    }
-    let ratios: Vec<String> = points
-        .iter()
-        .map(|p| {
-            p.regime
-                .and_then(|r| r.ratio)
-                .map_or(String::new(), |(m, n)| format!("{m}:{n}"))
-        })
-        .collect();
-    out.set_item("ratio", ratios)?;
     let missed = PyList::empty(py);
     for m in &branch.missed_requests {
         let d = PyDict::new(py);

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import csv
+import subprocess
+
 import numpy as np
 import pytest
 
@@ -68,6 +71,59 @@ def test_to_pandas_has_the_columns_of_the_csv_file(two_dof_branch) -> None:
     np.testing.assert_allclose(frame["frequency_hz"] * 2 * np.pi, b.frequency, rtol=1e-15)
     np.testing.assert_allclose(frame["frequency_ratio"] * b.linear_frequency, b.frequency, rtol=1e-15)
     assert abs(frame["frequency_ratio"][0] - 1) < 1e-3  # the first point is near the linear limit
+
+
+def test_a_branchs_point_columns_are_the_declared_ones(two_dof_branch) -> None:
+    """The Branch's per-point arrays and `to_pandas()` come from the library's one list of point
+    columns (crates/nnm-io/src/output/columns.rs), not from a list of their own."""
+    import inspect
+
+    from nnm import _branch, _nnm
+
+    b = two_dof_branch
+    declared = [c[0] for c in _nnm.POINT_COLUMNS]
+    assert [c.key for c in _branch._POINT_COLUMNS] == declared and len(set(declared)) == len(declared)
+    dtypes = {"float": np.float64, "integer": np.int64, "optional-integer": np.float64, "bool": np.bool_,
+              "text": object}
+    for c in _branch._POINT_COLUMNS:
+        values = getattr(b, c.key)
+        shape = (len(b), len(b.output_dofs)) if c.per_output_dof else (len(b),)
+        assert values.dtype == dtypes[c.kind] and values.shape == shape, c
+        assert c.unit and c.doc and ("<d>" in c.name) == c.per_output_dof, c
+    # The arrays a type checker is told of are the declared columns and the two that are not
+    # columns of the points' table.
+    arrays = {name for name, hint in nnm.Branch.__annotations__.items() if hint == "np.ndarray"}
+    assert arrays == set(declared) | {"state0", "multipliers"}
+    # No hand list left: no CSV header that differs from its array's name is spelled out.
+    source = inspect.getsource(_branch)
+    for c in _branch._POINT_COLUMNS:
+        if c.name != c.key:
+            assert f'"{c.name.split("<")[0]}' not in source, c.name
+    # to_pandas() has the CSV's columns, in their order; the others only as arrays.
+    csv = [c for c in _branch._POINT_COLUMNS if c.csv]
+    header = [name for c in csv for name in (
+        [c.name.replace("<d>", str(d)) for d in b.output_dofs] if c.per_output_dof else [c.name])]
+    assert list(b.to_pandas().columns) == header
+    assert {"energy_slope", "reciprocity_defect"} <= set(declared) - {c.key for c in csv}
+
+
+def test_to_pandas_is_the_csv_file_of_nnm_run(cli, write_job, tmp_path) -> None:
+    """Same header, and the same values to the last digit (the CSV writes floats exactly)."""
+    pytest.importorskip("pandas")
+    job = write_job('[model]\nfamily = "two-dof"\n[settings]\nenergy_max = 1.0\n'
+                    '[[branch]]\nname = "b"\nmode = 0\n')
+    subprocess.run([str(cli), "run", str(job), "--out", str(tmp_path / "out"), "--quiet"], check=True)
+    with (tmp_path / "out" / "b.csv").open(newline="") as f:
+        header, *rows = list(csv.reader(f))
+    frame = nnm.backbone(nnm.two_dof(), 0, energy_max=1.0, progress=False).to_pandas()
+    assert header == list(frame.columns) and len(rows) == len(frame)
+    for j, name in enumerate(header):
+        fields = [row[j] for row in rows]
+        values = frame[name].to_numpy()
+        if values.dtype.kind in "fi":
+            np.testing.assert_array_equal([float(v) if v else np.nan for v in fields], values.astype(float))
+        else:
+            assert fields == [str(v).lower() if values.dtype.kind == "b" else v for v in values], name
 
 
 def test_the_frequency_energy_plot_dashes_unstable_parts(two_dof_branch) -> None:

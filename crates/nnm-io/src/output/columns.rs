@@ -13,11 +13,15 @@ use super::number;
 /// The type of a column's values, for a reader that keeps one array per column.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
+    /// A number; an array holds NaN where a point has none ([`Value::Empty`]).
     Float,
-    /// A count or an index (an [`Value::Empty`] field has no integer: an array of such a column
-    /// that may hold one needs a float type and NaN).
+    /// A count or an index, which every point has.
     Integer,
+    /// A count or an index that a point may lack ([`Value::Empty`]): an empty field has no
+    /// integer, so an array of the column needs a float type and NaN.
+    OptionalInteger,
     Bool,
+    /// A word; a point without one leaves it empty.
     Text,
 }
 
@@ -260,7 +264,7 @@ pub const POINT_COLUMNS: &[PointColumn] = &[
         unit: "—",
         doc: "index of the resonant partner mode (the largest), empty if none",
         key: "partner_mode",
-        kind: Kind::Integer,
+        kind: Kind::OptionalInteger,
         csv: true,
         fields: Fields::One(|p, _| partner(p).map_or(Value::Empty, |c| Value::Integer(c.mode))),
     },
@@ -269,7 +273,7 @@ pub const POINT_COLUMNS: &[PointColumn] = &[
         unit: "—",
         doc: "harmonic k of ω at which the partner moves",
         key: "partner_harmonic",
-        kind: Kind::Integer,
+        kind: Kind::OptionalInteger,
         csv: true,
         fields: Fields::One(|p, _| partner(p).map_or(Value::Empty, |c| Value::Integer(c.harmonic))),
     },
@@ -425,6 +429,38 @@ mod tests {
         };
         let row = csv_record(&bare, &context);
         assert!(row[11].is_empty() && row[14..19].iter().all(String::is_empty));
+    }
+
+    /// A reader that keeps one typed array per column (the Python binding) can rely on
+    /// [`PointColumn::kind`]: every field is of that kind, and only a column whose kind has an
+    /// empty value is ever empty.
+    #[test]
+    fn every_field_is_of_its_columns_kind() {
+        let context = BranchContext {
+            linear_frequency_rad_s: 1.0,
+            output_dofs: &[0, 1],
+        };
+        let p = point();
+        let bare = BranchPoint {
+            label: None,
+            regime: None,
+            ..p.clone()
+        };
+        for point in [&p, &bare] {
+            for c in POINT_COLUMNS {
+                for v in c.values(point, &context) {
+                    let fits = match (c.kind, &v) {
+                        (Kind::Float, Value::Float(_) | Value::Empty) => true,
+                        (Kind::Integer, Value::Integer(_)) => true,
+                        (Kind::OptionalInteger, Value::Integer(_) | Value::Empty) => true,
+                        (Kind::Bool, Value::Bool(_)) => true,
+                        (Kind::Text, Value::Text(_) | Value::Empty) => true,
+                        _ => false,
+                    };
+                    assert!(fits, "column {} is {:?} but has {v:?}", c.name, c.kind);
+                }
+            }
+        }
     }
 
     /// docs/output.md's table of `<branch>.csv` has a row for every CSV column, with the

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any, Callable, NamedTuple
 
 import numpy as np
 
+from . import _nnm
 from ._errors import ContinuationError
 from ._labels import _parse_label
 
@@ -54,35 +55,34 @@ class Motion(NamedTuple):
     v: np.ndarray
 
 
-# Columns of `<branch>.csv`, in its order, and the Branch attribute each comes from.
-_CSV_COLUMNS = [
-    ("index", "index"),
-    ("energy", "energy"),
-    ("frequency_rad_s", "frequency"),
-    ("period_s", "period"),
-    ("stable", "stable"),
-    ("max_floquet_modulus", "max_floquet_modulus"),
-    ("relative_residual", "relative_residual"),
-    ("iterations", "iterations"),
-    ("step", "step"),
-    ("full_period_residual", "full_period_residual"),
-    ("unstable_pairs", "unstable_pairs"),
-    ("label", "label"),
-    ("frequency_hz", "frequency_hz"),
-    ("frequency_ratio", "frequency_ratio"),
-    ("regime", "regime"),
-    ("partner_mode", "partner_mode"),
-    ("partner_harmonic", "partner_harmonic"),
-    ("partner_share", "partner_share"),
-    ("ratio", "ratio"),
-]
+class PointColumn(NamedTuple):
+    """A column of a branch's points as the library declares it, once for the CSV file and the
+    :class:`Branch` (crates/nnm-io/src/output/columns.rs): ``key`` is the Branch's array,
+    ``name`` the CSV header (``<d>`` standing for the output dof when ``per_output_dof``: one
+    field each, the array points × len(``output_dofs``)), ``kind`` ``"float"``, ``"integer"``,
+    ``"optional-integer"`` (float, NaN where a point has none), ``"bool"`` or ``"text"``, and
+    ``csv`` whether ``<branch>.csv`` (and :meth:`Branch.to_pandas`) has it."""
+
+    key: str
+    name: str
+    unit: str
+    doc: str
+    kind: str
+    csv: bool
+    per_output_dof: bool
+
+
+# A Branch's point columns, in the order `<branch>.csv` has them.
+_POINT_COLUMNS = [PointColumn(*c) for c in _nnm.POINT_COLUMNS]
 
 
 class Branch:
     """A computed branch: one entry per converged point, in continuation order.
 
     Arrays (numpy, one entry per point): ``energy`` (total energy of the motion),
-    ``frequency`` (rad/s), ``period`` (s), ``state0`` (points × 2n: the initial state
+    ``frequency`` (rad/s), ``frequency_hz`` (``frequency / 2π``: Hz when the model's time unit
+    is the second), ``frequency_ratio`` (``frequency / linear_frequency``: ``ω/ω0``), ``period``
+    (s), ``state0`` (points × 2n: the initial state
     ``[x0; v0]`` of each periodic motion), ``stable``, ``multipliers`` (points × 2n complex
     Floquet multipliers, the two trivial ones at +1 last), ``max_floquet_modulus``,
     ``unstable_pairs``, ``relative_residual``, ``full_period_residual``, ``iterations``,
@@ -102,10 +102,18 @@ class Branch:
     the seconds the continuation took in the library (the rest of a call's time is modal
     analysis and the bindings' own). A branch from :meth:`switch` has ``switched_from``
     (``event``, ``direction``, ``kind`` and the ``phase`` condition it was computed with).
+
+    The per-point arrays are the library's point columns (:class:`PointColumn`), listed with
+    their units at the end of this text.
     """
+
+    # The annotations are for type checkers, which cannot read the library's list; a test holds
+    # the arrays among them to the declared columns.
 
     energy: np.ndarray
     frequency: np.ndarray
+    frequency_hz: np.ndarray
+    frequency_ratio: np.ndarray
     period: np.ndarray
     state0: np.ndarray
     stable: np.ndarray
@@ -156,9 +164,9 @@ class Branch:
         n = model.dofs
         if self.state0.shape[0] == 0:
             self.state0 = self.state0.reshape(0, 2 * n)
-        self.label = np.array(self.label, dtype=object)
-        self.regime = np.array(self.regime, dtype=object)
-        self.ratio = np.array(self.ratio, dtype=object)
+        for column in _POINT_COLUMNS:
+            if column.kind == "text":  # a list of str from the library
+                setattr(self, column.key, np.array(getattr(self, column.key), dtype=object))
         self.events = [Event(**e) for e in events]
 
     def __len__(self) -> int:
@@ -178,16 +186,6 @@ class Branch:
     def __repr__(self) -> str:
         mode = self.mode if self.mode_label is None else self.mode_label
         return f"<nnm.Branch of mode {mode}: {len(self)} points, {len(self.events)} events, {self.stop}>"
-
-    @property
-    def frequency_hz(self) -> np.ndarray:
-        """``frequency / 2π`` per point (Hz when the model's time unit is the second)."""
-        return self.frequency / (2.0 * np.pi)
-
-    @property
-    def frequency_ratio(self) -> np.ndarray:
-        """``frequency / linear_frequency`` per point (``ω/ω0``)."""
-        return self.frequency / self.linear_frequency
 
     @property
     def frequency_shift(self) -> np.ndarray:
@@ -219,9 +217,16 @@ class Branch:
         """The points as a DataFrame with the columns of ``<branch>.csv``."""
         import pandas
 
-        columns = {column: getattr(self, attribute) for column, attribute in _CSV_COLUMNS}
-        for k, dof in enumerate(self.output_dofs):
-            columns[f"peak_x{dof}"] = self.peak_displacement[:, k]
+        columns = {}
+        for column in _POINT_COLUMNS:
+            if not column.csv:
+                continue
+            values = getattr(self, column.key)
+            if column.per_output_dof:
+                for k, dof in enumerate(self.output_dofs):
+                    columns[column.name.replace("<d>", str(dof))] = values[:, k]
+            else:
+                columns[column.name] = values
         return pandas.DataFrame(columns)
 
     def plot(self, ax: "matplotlib.axes.Axes | None" = None, **kwargs: Any) -> "matplotlib.axes.Axes":
@@ -229,6 +234,11 @@ class Branch:
         from . import plot
 
         return plot.fep([self], ax=ax, **kwargs)
+
+
+Branch.__doc__ = (Branch.__doc__ or "") + "\n    Point columns (array, unit: meaning):\n\n" + "".join(
+    f"    - ``{c.key}`` ({c.unit}): {c.doc}\n" for c in _POINT_COLUMNS
+)
 
 
 def _options(

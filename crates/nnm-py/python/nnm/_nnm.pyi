@@ -4,6 +4,8 @@ from typing import Any, Callable
 import numpy as np
 
 SETTINGS_KEYS: list[str]
+# (key, name, unit, doc, kind, csv, per_output_dof) of each point column, in declaration order.
+POINT_COLUMNS: list[tuple[str, str, str, str, str, bool, bool]]
 __version__: str
 
 def family_defaults(family: str) -> dict[str, Any]: ...
