@@ -216,7 +216,7 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
     };
     if stiff {
         // Stiff finite-element models: the implicit integrator chosen automatically, the
-        // beam's first mode to +20% as refinement grows (the targets), and on the
+        // beam's first mode to +20% as refinement grows, and on the
         // 19-element beam its first two points against the explicit integrator.
         // Dense and matrix-free formulations (docs/method.md §15) side by side on the same
         // damping integrator.

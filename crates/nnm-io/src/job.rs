@@ -54,7 +54,7 @@ pub use branch::{
     BranchBody, SWITCH_AMPLITUDE, branch_body, branch_mode, phase_name, resolve_mode,
 };
 pub use elements::{Element, spring};
-pub use families::{Family, family_defaults, family_parameter_names};
+pub use families::{Family, family_defaults, family_names, family_parameter_names};
 pub use load::{load_job, load_job_with, parse_job};
 pub use model::{general_model, model_from_table};
 pub use schema::EventStart;

@@ -1,4 +1,4 @@
-"""Cost of the bindings on a bladed-disk backbone (issue 12's target: under 5% of the
+"""Cost of the bindings on a bladed-disk backbone (the target: under 5% of the
 backbone's time): the wall time of `nnm.backbone` against the time the library's
 continuation took inside it (`Branch.wall_time`). The difference is everything the Python
 call adds: modal analysis and start (also paid by `nnm run`), argument parsing, the GIL,

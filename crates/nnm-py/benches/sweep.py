@@ -1,4 +1,4 @@
-"""Parallel efficiency of a mistuning sweep on Dask (issue 12's target: a 200-sample sweep of
+"""Parallel efficiency of a mistuning sweep on Dask (the target: a 200-sample sweep of
 one bladed-disk mode family on a 2-worker LocalCluster within 10% of 200 × one sample's time
 ÷ 2). One run measures, side by side:
 

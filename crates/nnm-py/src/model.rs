@@ -479,3 +479,18 @@ impl NativeModel {
         })
     }
 }
+
+/// The default parameters of a built-in family (`"bladed-disk"`, ...) as the library declares
+/// them (`nnm_io::job::family_defaults`), in the order its struct declares them: the Python
+/// constructors take their keyword defaults from here instead of restating them.
+#[pyfunction]
+pub fn family_defaults<'py>(py: Python<'py>, family: &str) -> PyResult<Bound<'py, PyDict>> {
+    let unknown = || PyValueError::new_err(format!("unknown model family `{family}`"));
+    let table = nnm_io::job::family_defaults(family).ok_or_else(unknown)?;
+    let names = nnm_io::job::family_parameter_names(family).ok_or_else(unknown)?;
+    let dict = PyDict::new(py);
+    for name in names {
+        dict.set_item(name, convert::from_toml(py, &table[*name])?)?;
+    }
+    Ok(dict)
+}

@@ -1,7 +1,6 @@
 //! The ECL beam's first backbone by shooting, against an independent harmonic-balance (HB)
 //! computation (tests/common/harmonic_balance.rs), and that HB against the exact Duffing
-//! period (issue 11: "every point within 1e-6 relative in frequency of an independent
-//! computation").
+//! period: every point within 1e-6 relative in frequency of an independent computation.
 
 #[path = "common/harmonic_balance.rs"]
 mod harmonic_balance;

@@ -1,4 +1,4 @@
-//! Bifurcations along NNM branches (issue 4): events located independently of the step size,
+//! Bifurcations along NNM branches: events located independently of the step size,
 //! checked against an independent monodromy, and a switched branch that is a different family.
 //!
 //! Run in the release profile: `cargo test --release -p nnm --test bifurcations -- --nocapture`
@@ -61,7 +61,7 @@ fn in_phase(max_step: f64) -> (Structure, Start, Settings, Branch) {
     (structure, start, settings, b)
 }
 
-/// docs/method.md §12 / issue 4: the in-phase branch loses stability at a branch point near E = 41. Its
+/// docs/method.md §12: the in-phase branch loses stability at a branch point near E = 41. Its
 /// location must not depend on the step that happened to bracket it, and the critical
 /// multiplier must sit at +1 in an independently computed (finite-difference, full-period)
 /// monodromy at the located point.
@@ -161,7 +161,7 @@ fn half_wave_asymmetry(structure: &Structure, z0: &[f64], period: f64) -> f64 {
     norm(&sum) / norm(z0)
 }
 
-/// Issue 4: switching at the two-DOF branch point gives converged motions of another family:
+/// switching at the two-DOF branch point gives converged motions of another family:
 /// they break the half-wave symmetry that every motion of the parent has, and they lie off
 /// the parent's frequency-energy curve.
 #[test]
@@ -231,7 +231,7 @@ fn duffing_backbone_has_no_events() {
     assert!(b.events.is_empty(), "{:?}", b.events);
 }
 
-/// Issue 4: the (1,14) backbone's S-shaped fold before it localizes, and the Krein collisions
+/// the (1,14) backbone's S-shaped fold before it localizes, and the Krein collisions
 /// where it loses and regains stability, located to better than 1e-6 in energy whatever the
 /// step.
 #[test]
@@ -306,7 +306,7 @@ fn parametric_pair() -> Structure {
     .unwrap()
 }
 
-/// Issue 4: a period doubling located independently of the step, confirmed by an independent
+/// a period doubling located independently of the step, confirmed by an independent
 /// (finite-difference) monodromy, and the switched branch: converged motions of twice the
 /// period that do not repeat after one parent period.
 #[test]
@@ -418,8 +418,8 @@ fn event_lists(
 /// Whatever the largest step (the default 0.25, 0.05, 0.02) and tolerance (1e-8, 1e-10), the
 /// same events at the same energies, each located (`converged`): the bladed disk's (1,14)
 /// family to E = 9 — three Krein collisions, two folds of its S-shaped turn and a collision
-/// between them (the default steps used to put the second collision at E = 5.90 instead of
-/// 6.46, and to add collisions that finer steps do not find) — and the two-DOF in-phase
+/// between them (coarse steps without the located refinement put the second collision at
+/// E = 5.90 instead of 6.46, and add collisions that finer steps do not find) — and the two-DOF in-phase
 /// family to E = 100. The energies agree within 1e-6 (relative) across settings; the (1,14)
 /// ones are those of the paper's study at fine steps.
 #[test]

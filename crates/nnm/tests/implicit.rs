@@ -112,7 +112,7 @@ fn stiff_model_keeps_its_multipliers_on_the_unit_circle() {
         "{per_integration} steps per integration"
     );
     // For comparison (reported, not asserted: the explicit monodromy's accuracy in the fast
-    // mode is the subject of another issue).
+    // mode is docs/method.md eq. (31b)'s subject, tested in tests/monodromy.rs).
     settings.integration.integrator = IntegrationMethod::Dop853;
     let explicit =
         continue_branch(&system, &start, &settings, |_| ControlFlow::Continue(())).unwrap();

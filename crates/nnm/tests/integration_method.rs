@@ -16,6 +16,33 @@ fn names_are_the_settings_spellings() {
     }
 }
 
+/// `ALL` holds every variant: a new one fails to compile here until it is listed, and then
+/// this test until `ALL` lists it too.
+#[test]
+fn all_lists_every_method() {
+    let listed = |m: IntegrationMethod| IntegrationMethod::ALL.contains(&m);
+    for method in IntegrationMethod::ALL {
+        match method {
+            IntegrationMethod::Auto
+            | IntegrationMethod::Dop853
+            | IntegrationMethod::Dopri5
+            | IntegrationMethod::Gauss4
+            | IntegrationMethod::Gauss6
+            | IntegrationMethod::Radau5 => {}
+        }
+    }
+    for method in [
+        IntegrationMethod::Auto,
+        IntegrationMethod::Dop853,
+        IntegrationMethod::Dopri5,
+        IntegrationMethod::Gauss4,
+        IntegrationMethod::Gauss6,
+        IntegrationMethod::Radau5,
+    ] {
+        assert!(listed(method), "{}", method.name());
+    }
+}
+
 #[test]
 fn symplectic_and_damping_methods_are_collocation_methods() {
     for method in IntegrationMethod::ALL {

@@ -1,4 +1,4 @@
-//! A monodromy accurate in every mode (issue 13 item 0; docs/method.md eq. (31b)).
+//! A monodromy accurate in every mode (docs/method.md eq. (31b)).
 //!
 //! Models whose frequencies spread widely, followed on a slow mode in the linear regime: the
 //! motion hardly excites the fast modes, but the monodromy must still propagate them exactly,

@@ -1,4 +1,4 @@
-//! The bifurcations along the backbones (issue 4): the events located on each backbone, the
+//! The bifurcations along the backbones: the events located on each backbone, the
 //! folds and Krein collisions of (1,14), and the family switched onto at the first branch
 //! point of (1,5), a branch point made double by the degenerate pair (cos and sin waves), with
 //! what the new motions are made of. Numbers only.

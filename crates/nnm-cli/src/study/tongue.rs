@@ -22,9 +22,8 @@ use super::backbones::{lagrange, single_branch};
 use crate::out_dir::create_dir;
 
 /// Largest arclength step on the tongue (relative to the amplitude). The tongue runs close to
-/// other branches near its root: before slow or far-off correctors were rejected, a step of
-/// 0.1 jumped onto one of them; now 0.02 to 0.25 all follow it (fold at E = 1470.78, junction
-/// at 69.36). 0.05 resolves the junction well enough to see the energy minimum there and to
+/// other branches near its root; with slow or far-off correctors rejected, steps of 0.02 to
+/// 0.25 all follow it (fold at E = 1470.78, junction at 69.36). 0.05 resolves the junction well enough to see the energy minimum there and to
 /// locate it to ~1e-8 (0.1: ~6e-7), for twice the cost of 0.1.
 const TONGUE_MAX_STEP: f64 = 0.05;
 

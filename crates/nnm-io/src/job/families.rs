@@ -58,6 +58,15 @@ pub fn family_defaults(family: &str) -> Option<toml::Table> {
     parse(family, &[], None).ok().map(|f| f.parameters())
 }
 
+/// The built-in families' names (`"bladed-disk"`, ...), in the order [`families!`] declares
+/// them: what front ends offer and the unknown-family message lists.
+pub fn family_names() -> &'static [&'static str] {
+    match family_keys("") {
+        Err(FamilyError::Unknown(names)) => names,
+        _ => unreachable!("no family is named by the empty string"),
+    }
+}
+
 /// The parameters `family` takes, in the order its struct declares them (`None` for an
 /// unknown family): the order front ends show them in ([`family_defaults`]' table is sorted).
 pub fn family_parameter_names(family: &str) -> Option<&'static [&'static str]> {

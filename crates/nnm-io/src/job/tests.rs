@@ -728,14 +728,6 @@ fn overrides_replace_keys_of_the_job_file() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The names of the built-in families (what the unknown-family message lists).
-fn family_names() -> &'static [&'static str] {
-    match families::family_keys("") {
-        Err(families::FamilyError::Unknown(names)) => names,
-        other => panic!("{other:?}"),
-    }
-}
-
 /// A family's default parameters, as `family_defaults` gives them to front ends, are what a
 /// job with only `family = "..."` builds: written out in full, they build the same model.
 #[test]

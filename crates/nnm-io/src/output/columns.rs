@@ -4,7 +4,9 @@
 //! branch's points (the Python binding's arrays: [`PointColumn::key`]). docs/output.md explains
 //! each column at length.
 //!
-//! Adding a column is one entry here (and its row in docs/output.md).
+//! Adding a column is one entry here (and its row in docs/output.md). `<name>.json` is not a
+//! table of these columns but a record of each point's own fields (`PointRecord` in
+//! `output/mod.rs`): a column computed from them needs nothing there.
 
 use nnm::BranchPoint;
 
@@ -83,8 +85,8 @@ pub struct PointColumn {
     /// for [`Fields::PerOutputDof`]).
     pub key: &'static str,
     pub kind: Kind,
-    /// Whether `<name>.csv` has the column; one it leaves out is in `<name>.json` and the
-    /// Python `Branch`.
+    /// Whether `<name>.csv` has the column; one it leaves out is in the Python `Branch` (and,
+    /// as a field of the point, in `<name>.json`'s record).
     pub csv: bool,
     pub fields: Fields,
 }

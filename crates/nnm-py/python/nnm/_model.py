@@ -265,8 +265,8 @@ def backbone(
     return _follow(model, call, f"mode {described}", progress, callback, raise_on_failure)
 
 
-# The built-in families: the job file's `family = "..."` with its keys as keyword arguments and
-# the same defaults (tests/test_models.py checks that they agree with the job file's).
+# The built-in families: the job file's `family = "..."` with its keys as keyword arguments, and
+# the defaults the library declares for them (tests/test_inputs.py builds each both ways).
 
 
 def _built_in_family(name: str) -> Callable[[Callable[..., dict[str, Any]]], Callable[..., Model]]:

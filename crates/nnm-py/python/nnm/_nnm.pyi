@@ -1,9 +1,10 @@
-# Stubs of the native module (crates/nnm-py/src/lib.rs). Private: use the `nnm` package.
+# Stubs of the native module (crates/nnm-py/src/). Private: use the `nnm` package.
 from typing import Any, Callable
 
 import numpy as np
 
 SETTINGS_KEYS: list[str]
+FAMILIES: list[str]
 # (key, name, unit, doc, kind, csv, per_output_dof) of each point column, in declaration order.
 POINT_COLUMNS: list[tuple[str, str, str, str, str, bool, bool]]
 __version__: str

@@ -31,8 +31,8 @@ const REFINE_DEPTH: usize = 2;
 /// detected crossings explain (`unexplained`): events whose count changes cancel within one
 /// step are separated by then (the (1,14) backbone's fold and Krein collision 0.0076 apart in
 /// energy, on a step spanning both). Measured on the whole study: depth 3 finds 294 events in
-/// 63 s, depth 5 finds 352 in 71 s (29.5 s and 278 events without this refinement, with the
-/// spurious and misplaced ones of issue 13).
+/// 63 s, depth 5 finds 352 in 71 s (29.5 s and 278 events without this refinement, some of
+/// them spurious or misplaced).
 const UNEXPLAINED_DEPTH: usize = 3;
 /// Trials allowed to the secant location (it converges in 5–12 on a simple root).
 const SECANT_TRIALS: usize = 20;

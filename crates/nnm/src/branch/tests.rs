@@ -79,7 +79,7 @@ fn accuracy_follows_requested_tolerance() {
     }
 }
 
-/// Units must not matter (review finding): `x → x/L` turns `x'' + x + x³ = 0` into
+/// Units must not matter: `x → x/L` turns `x'' + x + x³ = 0` into
 /// `x'' + x + L² x³ = 0`, and `t → t/τ` turns it into `x'' + τ⁻² x + τ⁻² x³ = 0`. The rescaled
 /// problems must be followed with the same number of points to the same relative accuracy
 /// (before the amplitude unit and the weighted residual, cubic = 1e8 crawled for 500 points
@@ -117,8 +117,8 @@ fn continuation_is_independent_of_length_and_time_units() {
 }
 
 /// A free chain (rigid mode) whose cubic spring ties dof 0 to ground: the rigid mode is not a
-/// symmetry of the nonlinear system and must stay among the unknowns (review finding: the
-/// first point stalled at a residual of 1.3e-7). The branch of the elastic mode converges.
+/// symmetry of the nonlinear system and must stay among the unknowns (without it the
+/// first point stalls at a residual of 1.3e-7). The branch of the elastic mode converges.
 #[test]
 fn rigid_mode_coupled_by_a_grounded_spring_is_kept() {
     use crate::linalg::Mat;
@@ -305,8 +305,8 @@ fn observer_hears_every_evaluation() {
     assert_eq!(counting.residual_matches, 10);
 }
 
-/// A branch stopped by a limit ends exactly on it (issue: `energy_max = 5` on the two-DOF
-/// model used to end at E = 8.63): the last point's energy, or frequency shift, is the limit
+/// A branch stopped by a limit ends exactly on it (`energy_max = 5` on the two-DOF model,
+/// not on the step past it, E = 8.63): the last point's energy, or frequency shift, is the limit
 /// to 1e-10, it is a converged point with its stability, and on Duffing its period is the
 /// exact elliptic one at that energy.
 #[test]

@@ -5,9 +5,9 @@
 //! and the derivative of that flow along a block of directions, and for the vector field. The
 //! implementations compute the sensitivities as the exact derivative of their own discrete
 //! flow ("internal differentiation", eq. (29)), so that the shooting Jacobian is the Jacobian
-//! of what Newton solves. Today: [`RungeKutta`], explicit embedded pairs ([`DOP853`] by
-//! default, [`DOPRI5`]) for non-stiff models; implicit schemes for stiff finite-element models
-//! plug in beside it.
+//! of what Newton solves: [`RungeKutta`], explicit embedded pairs ([`DOP853`] by default,
+//! [`DOPRI5`]) for non-stiff models, and [`GaussLegendre`] (`collocation/`), implicit
+//! collocation for stiff finite-element models; [`IntegrationMethod`] chooses between them.
 
 mod collocation;
 mod kernels;
