@@ -5,8 +5,6 @@
 /// convergence at the minimum step): its results are written, yet a script must not take them
 /// for the branch asked for. (2 is clap's code for a command-line usage error.)
 pub const EXIT_STOPPED_EARLY: u8 = 3;
-/// Exit code after Ctrl-C: 128 + SIGINT, as shells report a process ended by it.
-pub const EXIT_INTERRUPTED: u8 = 130;
 
 /// A command that wrote its results but did not finish what was asked; told apart from a
 /// failure (exit code 1) by its own exit code.
@@ -14,7 +12,7 @@ pub const EXIT_INTERRUPTED: u8 = 130;
 pub enum Unfinished {
     /// A branch stopped before its limit ([`EXIT_STOPPED_EARLY`]).
     StoppedEarly(String),
-    /// Ctrl-C ([`EXIT_INTERRUPTED`]).
+    /// Ctrl-C or SIGTERM (exit code 128 + the signal's number: [`crate::interrupt::exit_code`]).
     Interrupted(String),
 }
 
@@ -32,7 +30,7 @@ impl std::error::Error for Unfinished {}
 pub fn exit_code(error: &anyhow::Error) -> u8 {
     match error.downcast_ref::<Unfinished>() {
         Some(Unfinished::StoppedEarly(_)) => EXIT_STOPPED_EARLY,
-        Some(Unfinished::Interrupted(_)) => EXIT_INTERRUPTED,
+        Some(Unfinished::Interrupted(_)) => crate::interrupt::exit_code(),
         None => 1,
     }
 }

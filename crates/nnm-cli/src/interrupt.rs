@@ -1,44 +1,166 @@
-//! Ctrl-C (SIGINT) as a request to stop, not a kill: the branches in progress stop at their
-//! next point or event (everything computed is already on disk), branches not yet started
-//! are skipped, and the command still writes its summary, frequency–energy plot and report for
-//! what was finished, then exits with [`crate::exit::EXIT_INTERRUPTED`]. A second Ctrl-C ends the
-//! process at once (the handler is reset to the default action when the first is delivered),
-//! for a point that would take too long to finish.
+//! Ctrl-C (SIGINT) and SIGTERM as a request to stop, not a kill: the branches in progress stop
+//! at their next point or event (everything computed is already on disk), branches not yet
+//! started are skipped, and the command still writes its summary, frequency–energy plot and
+//! report for what was finished, then exits with 128 + the signal's number ([`exit_code`]: 130
+//! for Ctrl-C, 143 for SIGTERM).
+//!
+//! A second signal (or SIGHUP, the terminal gone: nothing can be printed any more) quits at
+//! once — yet not in the middle of a write of the branch files: a write in progress
+//! ([`writing`]) is finished first, so the files hold every point and event written, whole. The
+//! output folder's lock ([`hold_lock`]) is removed, then the process ends by the signal itself
+//! (as shells expect of a process that did not finish). A third signal quits even while a write
+//! is stuck.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::ffi::c_char;
+use std::path::Path;
+use std::sync::atomic::{AtomicI32, AtomicPtr, AtomicUsize, Ordering};
 
-static REQUESTED: AtomicBool = AtomicBool::new(false);
+/// The first stopping signal received (0: none).
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
+/// Signals received so far.
+static RECEIVED: AtomicUsize = AtomicUsize::new(0);
+/// The signal that asked to quit at once (0: none).
+static QUIT: AtomicI32 = AtomicI32::new(0);
+/// Writes of branch files in progress.
+static WRITING: AtomicUsize = AtomicUsize::new(0);
+/// The output folder's lock file, removed when quitting at once (null: none held). The string
+/// is leaked, never freed, so that the handler can read it at any time.
+static LOCK: AtomicPtr<c_char> = AtomicPtr::new(std::ptr::null_mut());
 
-/// Whether Ctrl-C was pressed.
+/// Whether Ctrl-C or SIGTERM came.
 pub fn requested() -> bool {
-    REQUESTED.load(Ordering::Relaxed)
+    SIGNAL.load(Ordering::SeqCst) != 0
 }
 
-/// The line printed on the first Ctrl-C, from the handler (so only `write(2)`, which is
-/// async-signal-safe, not Rust's buffered, locking `eprintln!`).
-const MESSAGE: &[u8] = b"\ninterrupted: finishing the points in progress and writing what is done (Ctrl-C again to quit at once)\n";
-
-#[cfg(unix)]
-extern "C" fn on_sigint(_: libc::c_int) {
-    REQUESTED.store(true, Ordering::Relaxed);
-    // SAFETY: write(2) is async-signal-safe; the buffer is static. Its result is ignored:
-    // nothing can be done about a closed stderr here.
-    unsafe {
-        libc::write(2, MESSAGE.as_ptr().cast(), MESSAGE.len());
+/// The exit code of a run stopped by a signal: 128 + its number, as shells report a process
+/// ended by it (130 for Ctrl-C, 143 for SIGTERM; 130 when none came).
+pub fn exit_code() -> u8 {
+    match SIGNAL.load(Ordering::SeqCst) {
+        0 => 130,
+        signal => u8::try_from(128 + signal).unwrap_or(130),
     }
 }
 
-/// Installs the handler (unix; elsewhere Ctrl-C keeps its default action).
+/// The lines printed on the first Ctrl-C or SIGTERM, from the handler (so only `write(2)`,
+/// which is async-signal-safe, not Rust's buffered, locking `eprintln!`).
+const MESSAGE: &[u8] = b"\ninterrupted: finishing the points in progress and writing what is done (Ctrl-C again to quit at once)\n";
+const TERMINATED: &[u8] = b"\nterminated (SIGTERM): finishing the points in progress and writing what is done (a second signal quits at once)\n";
+
+#[cfg(unix)]
+extern "C" fn on_signal(signal: libc::c_int) {
+    let first = RECEIVED.fetch_add(1, Ordering::SeqCst) == 0;
+    if signal != libc::SIGHUP && first {
+        SIGNAL.store(signal, Ordering::SeqCst);
+        let message = if signal == libc::SIGTERM {
+            TERMINATED
+        } else {
+            MESSAGE
+        };
+        // SAFETY: write(2) is async-signal-safe; the buffer is static. Its result is ignored:
+        // nothing can be done about a closed stderr here.
+        unsafe {
+            libc::write(2, message.as_ptr().cast(), message.len());
+        }
+        return;
+    }
+    QUIT.store(signal, Ordering::SeqCst);
+    // A write in progress quits when it is done ([`writing`]); a third signal does not wait.
+    if WRITING.load(Ordering::SeqCst) == 0 || RECEIVED.load(Ordering::SeqCst) > 2 {
+        quit(signal);
+    }
+}
+
+/// Removes the lock and ends the process by `signal` (its default action), only
+/// async-signal-safe calls.
+#[cfg(unix)]
+fn quit(signal: libc::c_int) -> ! {
+    // SAFETY: unlink, signal, pthread_sigmask, raise and _exit are async-signal-safe; the lock
+    // path is a leaked, NUL-terminated string that is never freed.
+    unsafe {
+        let lock = LOCK.load(Ordering::SeqCst);
+        if !lock.is_null() {
+            libc::unlink(lock);
+        }
+        libc::signal(signal, libc::SIG_DFL);
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        libc::sigaddset(&mut set, signal);
+        libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut());
+        libc::raise(signal);
+        libc::_exit(128 + signal)
+    }
+}
+
+/// Runs `write` (a write of branch files) so that a signal asking to quit at once waits for it
+/// to end, and quits right after it; a write asked for once quitting was decided is not begun.
+pub fn writing<T>(write: impl FnOnce() -> T) -> T {
+    WRITING.fetch_add(1, Ordering::SeqCst);
+    if QUIT.load(Ordering::SeqCst) != 0 {
+        done_writing();
+        // Another write is ending and will quit.
+        loop {
+            std::thread::park();
+        }
+    }
+    let result = write();
+    done_writing();
+    result
+}
+
+/// Ends a write; the last one quits if a signal asked to meanwhile.
+fn done_writing() {
+    let left = WRITING.fetch_sub(1, Ordering::SeqCst) - 1;
+    #[cfg(unix)]
+    {
+        let signal = QUIT.load(Ordering::SeqCst);
+        if left == 0 && signal != 0 {
+            quit(signal);
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = left;
+}
+
+/// Records `path` as the lock to remove if a signal quits the process at once.
+pub fn hold_lock(path: &Path) {
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        if let Ok(path) = std::ffi::CString::new(path.as_os_str().as_bytes()) {
+            LOCK.store(path.into_raw(), Ordering::SeqCst);
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+}
+
+/// The lock is removed by its holder: nothing to remove when quitting.
+pub fn release_lock() {
+    // The string stays leaked: the handler may be reading it.
+    LOCK.store(std::ptr::null_mut(), Ordering::SeqCst);
+}
+
+/// Installs the handlers (unix; elsewhere the signals keep their default action): SIGINT and
+/// SIGTERM, and SIGHUP unless it is ignored (`nohup`).
 pub fn install() {
     #[cfg(unix)]
     // SAFETY: called first thing in main, before any other thread exists; the handler only
-    // stores to an atomic and calls write(2). SA_RESETHAND restores the default action once
-    // the first SIGINT is delivered, so a second one ends the process.
+    // uses atomics and async-signal-safe calls.
     unsafe {
         let mut action: libc::sigaction = std::mem::zeroed();
-        action.sa_sigaction = on_sigint as extern "C" fn(libc::c_int) as libc::sighandler_t;
-        action.sa_flags = libc::SA_RESETHAND | libc::SA_RESTART;
+        action.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+        action.sa_flags = libc::SA_RESTART;
+        // The other signals wait while the handler runs: it sees them one at a time.
         libc::sigemptyset(&mut action.sa_mask);
+        for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+            libc::sigaddset(&mut action.sa_mask, signal);
+        }
         libc::sigaction(libc::SIGINT, &action, std::ptr::null_mut());
+        libc::sigaction(libc::SIGTERM, &action, std::ptr::null_mut());
+        let mut hangup: libc::sigaction = std::mem::zeroed();
+        libc::sigaction(libc::SIGHUP, std::ptr::null(), &mut hangup);
+        if hangup.sa_sigaction != libc::SIG_IGN {
+            libc::sigaction(libc::SIGHUP, &action, std::ptr::null_mut());
+        }
     }
 }

@@ -2,7 +2,8 @@
 //! interleave their files, and the CSV/JSON of a branch could hold points of both.
 //!
 //! A run takes `DIR/.nnm.lock` (created exclusively, holding its process id) and removes it
-//! when done. A lock left by a run that no longer exists (killed) is taken over; one held by
+//! when done (a second Ctrl-C or SIGTERM, which quits at once, removes it too: see
+//! [`crate::interrupt`]). A lock left by a run that no longer exists (killed) is taken over; one held by
 //! a live process fails the run at once with a one-line error.
 
 use std::io::Write;
@@ -38,6 +39,8 @@ impl OutDir {
                 Ok(mut file) => {
                     writeln!(file, "{}", std::process::id())
                         .with_context(|| format!("cannot write {}", lock.display()))?;
+                    // A signal that quits at once removes it too.
+                    crate::interrupt::hold_lock(&lock);
                     return Ok(Self { lock });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
@@ -68,6 +71,7 @@ impl OutDir {
 
 impl Drop for OutDir {
     fn drop(&mut self) {
+        crate::interrupt::release_lock();
         let _ = std::fs::remove_file(&self.lock);
     }
 }

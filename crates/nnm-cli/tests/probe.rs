@@ -186,7 +186,30 @@ fn stop_reason(json: &Path) -> String {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_writes_what_was_finished() {
-    let dir = scratch("sigint");
+    stop_writes_what_was_finished(
+        "sigint",
+        libc::SIGINT,
+        130,
+        "\ninterrupted: finishing the points in progress and writing what is done (Ctrl-C again to quit at once)\n",
+    );
+}
+
+/// SIGTERM (what `kill`, `timeout` and schedulers send) stops `nnm run` as Ctrl-C does, its own
+/// line first, with exit code 143 (128 + 15).
+#[cfg(unix)]
+#[test]
+fn sigterm_writes_what_was_finished() {
+    stop_writes_what_was_finished(
+        "sigterm",
+        libc::SIGTERM,
+        143,
+        "\nterminated (SIGTERM): finishing the points in progress and writing what is done (a second signal quits at once)\n",
+    );
+}
+
+#[cfg(unix)]
+fn stop_writes_what_was_finished(name: &str, signal: i32, code: i32, first_line: &str) {
+    let dir = scratch(name);
     let text =
         format!("{LONG_BRANCH}[[branch]]\nname = \"later\"\nmode = \"1,5\"\nenergy_max = 10.0\n");
     let path = write(&dir, "job.toml", &text);
@@ -194,14 +217,11 @@ fn ctrl_c_writes_what_was_finished() {
     let out_dir = out.to_str().unwrap();
     let child = spawn(&["run", &path, "--out", out_dir, "--quiet", "--threads", "1"]);
     wait_for_rows(&out.join("long.csv"), 5);
-    let output = interrupt(child);
+    let output = send(child, &[signal]);
     let stderr = stderr_of(&output);
     let stdout = String::from_utf8_lossy(&output.stdout);
-    assert_eq!(output.status.code(), Some(130), "{stderr}");
-    assert!(
-        stderr.starts_with("\ninterrupted: finishing the points in progress"),
-        "{stderr}"
-    );
+    assert_eq!(output.status.code(), Some(code), "{stderr}");
+    assert!(stderr.starts_with(first_line), "{stderr}");
     assert!(
         stderr.contains("error: interrupted: 0 of 2 branches finished"),
         "{stderr}"
@@ -350,14 +370,139 @@ fn ctrl_c_during_a_study_writes_its_report_so_far() {
     assert!(!out.join(".nnm.lock").exists());
 }
 
+/// SIGTERM during `nnm study` stops it as Ctrl-C does: the report so far, exit code 143, the
+/// lock released.
+#[cfg(unix)]
+#[test]
+fn sigterm_during_a_study_writes_its_report_so_far() {
+    let dir = scratch("study-sigterm");
+    let path = write(&dir, "job.toml", STUDY_JOB);
+    let out = dir.join("out");
+    let child = spawn(&["study", &path, "--out", out.to_str().unwrap(), "--quick"]);
+    wait_for_rows(&out.join("backbones").join("mode-0-2.csv"), 3);
+    let output = send(child, &[libc::SIGTERM]);
+    let stderr = stderr_of(&output);
+    assert_eq!(output.status.code(), Some(143), "{stderr}");
+    assert!(
+        stderr.contains("error: interrupted: the study stopped;"),
+        "{stderr}"
+    );
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("## Interrupted"), "{report}");
+    assert!(!out.join(".nnm.lock").exists());
+}
+
+/// A second signal quits at once (the process ends by it, without waiting for the point in
+/// progress), yet the files hold every point written, whole — the CSV and the JSON the same
+/// points, the JSON a valid document — and the output folder's lock is removed.
+#[cfg(unix)]
+#[test]
+fn a_second_signal_quits_at_once_leaving_every_point() {
+    use std::io::BufRead;
+    use std::os::unix::process::ExitStatusExt;
+    let dir = scratch("second-signal");
+    let path = write(&dir, "job.toml", LONG_BRANCH);
+    for (first, said) in [
+        (libc::SIGINT, "interrupted: "),
+        (libc::SIGTERM, "terminated (SIGTERM): "),
+    ] {
+        let out = dir.join(format!("out{first}"));
+        let mut child = spawn(&["run", &path, "--out", out.to_str().unwrap(), "--quiet"]);
+        wait_for_rows(&out.join("long.csv"), 3);
+        let pid = libc::pid_t::try_from(child.id()).unwrap();
+        // SAFETY: kill has no memory-safety preconditions; the child is ours and not reaped.
+        assert_eq!(unsafe { libc::kill(pid, first) }, 0);
+        // The second signal once the first is heard (two alike sent at once would merge).
+        let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+        let mut line = String::new();
+        while !line.starts_with(said) {
+            line.clear();
+            assert!(stderr.read_line(&mut line).unwrap() > 0, "no `{said}` line");
+        }
+        assert_eq!(unsafe { libc::kill(pid, libc::SIGINT) }, 0);
+        let status = child.wait().unwrap();
+        assert_eq!(status.signal(), Some(libc::SIGINT), "after signal {first}");
+        assert!(!out.join(".nnm.lock").exists(), "after signal {first}");
+        assert_json_holds_the_csv(&out, "long");
+    }
+}
+
+/// SIGHUP (the terminal gone) quits at once like a second signal: every point and every event
+/// written, the events in the JSON with their states `z0`, the lock removed. Under `nohup`
+/// (SIGHUP ignored) the run goes on.
+#[cfg(unix)]
+#[test]
+fn sighup_quits_at_once_leaving_every_point_and_event() {
+    use std::os::unix::process::ExitStatusExt;
+    // The two-DOF backbone in small steps, on past its branch point near E = 41.
+    let job = "[model]\nfamily = \"two-dof\"\ncubic = 0.5\n[settings]\nenergy_max = 1e4\nmax_step = 0.002\nmax_points = 1000000\n[[branch]]\nname = \"b\"\nmode = 0\n";
+    let dir = scratch("sighup");
+    let path = write(&dir, "job.toml", job);
+    let out = dir.join("out");
+    let child = spawn(&["run", &path, "--out", out.to_str().unwrap(), "--quiet"]);
+    wait_for_rows(&out.join("b.events.csv"), 1);
+    let output = send(child, &[libc::SIGHUP]);
+    assert_eq!(
+        output.status.signal(),
+        Some(libc::SIGHUP),
+        "{}",
+        stderr_of(&output)
+    );
+    assert!(!out.join(".nnm.lock").exists());
+    let events = assert_json_holds_the_csv(&out, "b");
+    assert_eq!(events[0]["type"], "branch-point");
+    for e in &events {
+        assert_eq!(e["z0"].as_array().unwrap().len(), 4);
+    }
+
+    let out = dir.join("nohup");
+    let child = Command::new("nohup")
+        .arg(env!("CARGO_BIN_EXE_nnm"))
+        .args(["run", &path, "--quiet", "--out"])
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for_rows(&out.join("b.csv"), 3);
+    let output = send(child, &[libc::SIGHUP, libc::SIGTERM]);
+    assert_eq!(output.status.code(), Some(143), "{}", stderr_of(&output));
+}
+
+/// `<name>.json` in `out` is a valid document of a branch still running, with the points of
+/// `<name>.csv` and the events of `<name>.events.csv`; returns its events.
+fn assert_json_holds_the_csv(out: &Path, name: &str) -> Vec<serde_json::Value> {
+    let json = std::fs::read_to_string(out.join(format!("{name}.json"))).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&json).expect("the JSON is valid");
+    assert_eq!(doc["status"], "running");
+    assert_eq!(
+        doc["points"].as_array().unwrap().len(),
+        csv_rows(&out.join(format!("{name}.csv")))
+    );
+    let events = doc["events"]
+        .as_array()
+        .expect("the events are in the JSON");
+    assert_eq!(
+        events.len(),
+        csv_rows(&out.join(format!("{name}.events.csv")))
+    );
+    events.clone()
+}
+
 /// Sends SIGINT to `child` and collects its output.
 #[cfg(unix)]
 fn interrupt(child: std::process::Child) -> Output {
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
+    send(child, &[libc::SIGINT])
+}
+
+/// Sends `signals` to `child`, one right after the other, and collects its output.
+#[cfg(unix)]
+fn send(child: std::process::Child, signals: &[i32]) -> Output {
+    let pid = libc::pid_t::try_from(child.id()).unwrap();
+    for &signal in signals {
+        // SAFETY: kill has no memory-safety preconditions; the child is ours and not reaped.
+        assert_eq!(unsafe { libc::kill(pid, signal) }, 0);
+    }
     child.wait_with_output().unwrap()
 }
 

@@ -13,6 +13,7 @@ use nnm_io::job::BranchJob;
 use nnm_io::output::{BranchInfo, BranchWriter};
 
 use super::writing::Writing;
+use crate::interrupt;
 
 /// Computes one branch from `start`, writing every point and event as it is found; `extra`
 /// sees each point after it is written and may stop the branch, `Break` giving the stop reason
@@ -31,7 +32,7 @@ pub fn compute_branch(
     extra: impl FnMut(&BranchPoint) -> ControlFlow<&'static str>,
 ) -> Result<Branch> {
     let started = Instant::now();
-    let mut writer = BranchWriter::create(out, info.clone())?;
+    let mut writer = interrupt::writing(|| BranchWriter::create(out, info.clone()))?;
     let mut observer = Writing {
         writer: &mut writer,
         error: None,
@@ -53,7 +54,8 @@ pub fn compute_branch(
                 Some(reason) if branch.stop == StopReason::Interrupted => reason.to_string(),
                 _ => branch.stop.to_string(),
             };
-            writer.finish(&branch, &stop, started.elapsed().as_secs_f64())?;
+            let wall_time = started.elapsed().as_secs_f64();
+            interrupt::writing(|| writer.finish(&branch, &stop, wall_time))?;
             if quiet {
                 return Ok(branch);
             }
@@ -93,7 +95,7 @@ pub fn compute_branch(
             Ok(branch)
         }
         Err(e) => {
-            writer.fail(&e.to_string())?;
+            interrupt::writing(|| writer.fail(&e.to_string()))?;
             Err(e.into())
         }
     }

@@ -1,5 +1,6 @@
 //! The observer of a branch's continuation: each point and event written to the branch's files
 //! as it is found, a progress line each, Ctrl-C and the caller's own stop heard between them.
+//! Each write is whole even when a second signal quits at once ([`interrupt::writing`]).
 
 use std::ops::ControlFlow;
 use std::sync::Mutex;
@@ -74,7 +75,7 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<&'static str>> Observer for &mut Writ
     fn point(&mut self, p: &BranchPoint) -> ControlFlow<()> {
         self.since_point = Instant::now();
         self.points += 1;
-        let written = self.writer.write_point(p);
+        let written = interrupt::writing(|| self.writer.write_point(p));
         let linear = self.info.linear_frequency_rad_s;
         self.after_write(written, || {
             format!(
@@ -103,7 +104,7 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<&'static str>> Observer for &mut Writ
     }
 
     fn event(&mut self, e: &Event) -> ControlFlow<()> {
-        let written = self.writer.write_event(e);
+        let written = interrupt::writing(|| self.writer.write_event(e));
         self.after_write(written, || {
             format!(
                 "event: {} at E = {:.10e}, f = {:.9} rad/s, multiplier ({:.6}, {:.6}){}",

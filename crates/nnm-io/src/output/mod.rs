@@ -4,9 +4,12 @@
 //!
 //! The branch files are written as each point converges or event is located, so an
 //! interruption loses nothing:
-//! the CSV gains a flushed row; the JSON stays a valid document throughout — its `points`
-//! array is last, and each new point is spliced in before the closing `]}` — with
-//! `"status": "running"` until the branch ends and the document is rewritten complete.
+//! the CSV gains a flushed row; the JSON stays a valid document throughout, holding every point
+//! and event written so far — it ends `"points":[...],"events":[...]}`, each new event spliced
+//! in before the closing `]}` and each new point before the `],"events":[...]}` tail — with
+//! `"status": "running"` until the branch ends and the document is rewritten complete. Each
+//! update of a file is one `write(2)` of one buffer, so a process killed between two updates
+//! leaves a valid document.
 
 use std::fs::File;
 use std::io::{Seek, SeekFrom, Write};
@@ -266,8 +269,8 @@ struct Document<'a> {
     stats: Option<&'a BranchStats>,
     #[serde(skip_serializing_if = "Option::is_none")]
     wall_time_s: Option<f64>,
-    /// Located events (written complete when the branch ends; `<name>.events.csv` has them as
-    /// they come).
+    /// Located events (while the branch runs, the writer keeps them after `points` instead,
+    /// appended as they come: [`BranchWriter`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     events: Option<Vec<EventRecord<'a>>>,
     /// Requested values (`at_energies`, `at_frequencies`) without a point, and why.
@@ -317,12 +320,28 @@ impl CsvFile {
     }
 }
 
+/// What follows the last point in the JSON of a running branch: the end of the `points` array,
+/// the `events` array holding `events` (records, comma-separated), the end of the document.
+fn events_tail(events: &str) -> String {
+    format!("],\"events\":[{events}]}}")
+}
+
 /// Streams one branch to `<dir>/<name>.csv` and `<dir>/<name>.json`.
+///
+/// While the branch runs the JSON ends `"points":[p0,...],"events":[e0,...]}`: an event is
+/// appended over the closing `]}` (a write of the event alone), a point at the end of the
+/// `points` array followed by the events' tail again (a write of the point and the events so
+/// far: independent of the number of points, so a branch costs O(n) to write, not O(n²);
+/// events are few). The events' records are kept in memory for that tail.
 pub struct BranchWriter {
     info: BranchInfo,
     csv: CsvFile,
     json: File,
     json_path: PathBuf,
+    /// Byte offset of the `]` that closes the JSON's `points` array.
+    points_end: u64,
+    /// The JSON's event records so far, comma-separated (what the tail's array holds).
+    events_json: String,
     events_csv: CsvFile,
     points: usize,
     events: usize,
@@ -352,6 +371,12 @@ impl BranchWriter {
             points: vec![],
         };
         let text = serde_json::to_string(&document).expect("serialisable");
+        // `...,"points":[]}` with the events' array after the points': `...,"points":[],"events":[]}`.
+        let head = text
+            .strip_suffix("]}")
+            .expect("the document ends with its points");
+        let points_end = head.len() as u64;
+        let text = format!("{head}{}", events_tail(""));
         json.write_all(text.as_bytes())
             .map_err(output_error(&json_path))?;
         Ok(Self {
@@ -359,6 +384,8 @@ impl BranchWriter {
             csv,
             json,
             json_path,
+            points_end,
+            events_json: String::new(),
             events_csv,
             points: 0,
             events: 0,
@@ -383,6 +410,18 @@ impl BranchWriter {
             e.converged.to_string(),
         ];
         self.events_csv.append(&record)?;
+        let record =
+            serde_json::to_string(&EventRecord::new(self.events, e)).expect("serialisable");
+        let separator = if self.events == 0 { "" } else { "," };
+        let err = output_error(&self.json_path);
+        // The document ends with `]}`: overwrite that with `[,]event]}`, in one write.
+        self.json.seek(SeekFrom::End(-2)).map_err(&err)?;
+        self.json
+            .write_all(format!("{separator}{record}]}}").as_bytes())
+            .map_err(&err)?;
+        self.json.flush().map_err(&err)?;
+        self.events_json.push_str(separator);
+        self.events_json.push_str(&record);
         self.events += 1;
         Ok(())
     }
@@ -393,11 +432,16 @@ impl BranchWriter {
         self.csv.append(&record)?;
         let record = serde_json::to_string(&PointRecord::from(p)).expect("serialisable");
         let err = output_error(&self.json_path);
-        // The document ends with `]}`: overwrite that with `[,]point]}`.
-        self.json.seek(SeekFrom::End(-2)).map_err(&err)?;
+        // The points' array closes at `points_end`, followed by the events' tail: overwrite
+        // both with `[,]point` and the same tail, in one write (the file only grows).
         let separator = if self.points == 0 { "" } else { "," };
-        write!(self.json, "{separator}{record}]}}").map_err(&err)?;
+        let text = format!("{separator}{record}{}", events_tail(&self.events_json));
+        self.json
+            .seek(SeekFrom::Start(self.points_end))
+            .map_err(&err)?;
+        self.json.write_all(text.as_bytes()).map_err(&err)?;
         self.json.flush().map_err(&err)?;
+        self.points_end += (separator.len() + record.len()) as u64;
         self.points += 1;
         Ok(())
     }
@@ -453,3 +497,6 @@ impl BranchWriter {
         self.replace_json(&document)
     }
 }
+
+#[cfg(test)]
+mod tests;
