@@ -13,7 +13,7 @@ use nnm_io::job::{BranchBody, BranchJob};
 use nnm_io::output::columns::BranchContext;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1};
-use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -271,7 +271,8 @@ impl NativeModel {
             nnm_io::job::branch_body(table, &toml::Table::new(), true).map_err(input_error)?;
         let count = parent.events.len();
         let located = parent.events.get(event).ok_or_else(|| {
-            PyIndexError::new_err(format!(
+            // The Python layer checks first (Python-style, `-1` the last event): as it words it.
+            PyValueError::new_err(format!(
                 "the branch has {count} event{}, so no event {event}",
                 if count == 1 { "" } else { "s" }
             ))
@@ -308,7 +309,9 @@ impl NativeModel {
     }
 
     /// The motion from `state0` over `period`, sampled at `samples + 1` equal times (the last
-    /// closes the orbit), integrated to relative `tolerance`: a `(samples + 1) × 2n` array.
+    /// closes the orbit), integrated to relative `tolerance` (in the range of a job file's
+    /// `tolerance`): a `(samples + 1) × 2n` array. The Python layer bounds `samples` by the
+    /// machine's memory before it calls.
     fn motion<'py>(
         &self,
         py: Python<'py>,
@@ -324,6 +327,7 @@ impl NativeModel {
                 "motion needs a state of 2 x {n} values, a positive period and at least one sample"
             )));
         }
+        nnm::settings::check_tolerance(tolerance).map_err(|e| PyValueError::new_err(e.0))?;
         let structure = &self.structure;
         let states = py.detach(|| {
             no_panic(|| {

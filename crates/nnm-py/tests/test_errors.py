@@ -131,7 +131,7 @@ def test_shapes_and_types_are_checked_before_the_library() -> None:
     with pytest.raises(FileNotFoundError):
         nnm.Model.from_job("no/such/job.toml")
     branch = nnm.backbone(nnm.duffing(), 0, max_points=3)
-    with pytest.raises(IndexError):
+    with pytest.raises(ValueError, match=r"^point 3 does not exist: the branch has 3 points \(0 to 2, or -3 to -1"):
         branch.motion(3)
 
 
@@ -176,3 +176,119 @@ def test_a_job_branch_switched_from_an_event_is_refused_by_name(write_job) -> No
     assert model.branches == ["in-phase", "switched"]
     with pytest.raises(ValueError, match="^branch `switched` starts from event 0 of branch `in-phase`"):
         nnm.backbone(model, branch="switched")
+
+
+@pytest.fixture(scope="module")
+def short_branch() -> nnm.Branch:
+    return nnm.backbone(nnm.duffing(), 0, max_points=3, progress=False)
+
+
+@pytest.mark.parametrize(
+    "args, kwargs, exception, message",
+    [
+        ((999,), {}, ValueError, r"^point 999 does not exist: the branch has 3 points \(0 to 2, or -3 to -1 from the end\)$"),
+        ((-4,), {}, ValueError, r"^point -4 does not exist: the branch has 3 points"),
+        ((1.0,), {}, TypeError, r"^the point index must be an integer, got float$"),
+        (("1",), {}, TypeError, r"^the point index must be an integer, got str$"),
+        ((0,), {"samples": 0}, ValueError, r"^samples must be at least 1, got 0$"),
+        ((0,), {"samples": -5}, ValueError, r"^samples must be at least 1, got -5$"),
+        ((0,), {"samples": 2**70}, ValueError, r"^samples=1180591620717411303424 would need .* GB for a motion of 1 dofs, more than half of this machine's .* GB of memory: at most \d+ samples$"),
+        ((0,), {"samples": 10.0}, TypeError, r"^samples must be an integer, got float$"),
+        ((0,), {"samples": True}, TypeError, r"^samples must be an integer, got bool$"),
+        ((0,), {"tolerance": float("nan")}, ValueError, r"^tolerance must be positive and finite, got NaN$"),
+        ((0,), {"tolerance": 0.0}, ValueError, r"^tolerance must be positive and finite, got 0$"),
+        ((0,), {"tolerance": -1e-8}, ValueError, r"^tolerance must be positive and finite, got -0.00000001$"),
+        ((0,), {"tolerance": 0.5}, ValueError, r"^tolerance 0.5 is too loose \(use < 1e-2\)$"),
+        ((0,), {"tolerance": 1e-20}, ValueError, r"^tolerance 1e-20 is below 1e-14"),
+        ((0,), {"tolerance": "1e-8"}, TypeError, r"^tolerance must be a real number, got str$"),
+    ],
+)
+def test_bad_motion_arguments_are_refused_before_anything_is_computed(
+    short_branch, args, kwargs, exception, message
+) -> None:
+    """`motion(i, samples=10**12)` once aborted the interpreter allocating the samples;
+    `motion(999)` raised IndexError and negative samples OverflowError; NaN, 0 and negative
+    tolerances were accepted, a string through `float()` (issue 29)."""
+    with pytest.raises(exception, match=message) as raised:
+        short_branch.motion(*args, **kwargs)
+    assert "\n" not in str(raised.value)
+
+
+def test_motion_samples_are_bounded_by_the_machines_memory(short_branch, monkeypatch) -> None:
+    """The bound is half the physical memory over 32 n + 72 bytes a sample (n = 1 here):
+    with 1 MB of memory, 512 kB / 104 B = 5041 states, so 5040 samples fit and 5041 do not."""
+    from nnm import _checks
+
+    monkeypatch.setattr(_checks, "physical_memory", lambda: 2**20)
+    assert len(short_branch.motion(0, samples=5040).t) == 5041
+    with pytest.raises(ValueError, match=r"^samples=5041 would need 0.000524 GB .* 0.00105 GB of memory: at most 5040 samples$"):
+        short_branch.motion(0, samples=5041)
+
+
+def test_motion_takes_python_style_indices(short_branch) -> None:
+    """`motion(-1)` is the last point, as `energy[-1]` is; the tolerance range's ends pass."""
+    last = short_branch.motion(-1, samples=4, tolerance=1e-14)
+    assert np.array_equal(last.x, short_branch.motion(2, samples=4, tolerance=1e-14).x)
+    assert last.t[-1] == short_branch.period[-1]
+    assert len(short_branch.motion(np.int64(0), samples=np.int32(3), tolerance=np.float32(1e-3)).t) == 4
+
+
+@pytest.mark.parametrize(
+    "element, exception, message",
+    [
+        (nnm.Cubic([0], "0.5"), TypeError, r"^nonlinear element 1: coefficient must be a real number, got str$"),
+        (nnm.Cubic([0], 1 + 2j), TypeError, r"^nonlinear element 1: coefficient must be a real number, got complex$"),
+        (nnm.Cubic([0], True), TypeError, r"^nonlinear element 1: coefficient must be a real number, got bool$"),
+        (nnm.Cubic([0], float("nan")), ValueError, r"^nonlinear element 1: coefficient must be finite, got NaN$"),
+        (nnm.Cubic(["0"], 1.0), TypeError, r"^nonlinear element 1: dofs must be an integer, got str$"),
+        (nnm.Polynomial([0], "1", 3), TypeError, r"^nonlinear element 1: coefficient must be a real number, got str$"),
+        (nnm.Polynomial([0], 1.0, 3.0), TypeError, r"^nonlinear element 1: exponent must be an integer, got float$"),
+        (nnm.Polynomial([0], 1.0, 10**30), ValueError, r"^nonlinear element 1: `exponent` = 10{30} is out of range$"),
+        (nnm.Tensor(cubic=([[0, 0, 0, 0]], ["1.0"])), TypeError, r"^nonlinear element 1: cubic term values must be real numbers, got dtype <U3$"),
+        (nnm.Tensor(quadratic=([[0, 0, 0]], [1j])), TypeError, r"^nonlinear element 1: quadratic term values must be real numbers, got dtype complex128$"),
+    ],
+)
+def test_element_numbers_are_real_numbers_and_integers(element, exception, message) -> None:
+    """A string coefficient was accepted through `float()` (issue 29): a str where a number is
+    expected is a TypeError, in every element."""
+    if "10{30}" in message:
+        message = message.replace("10{30}", str(10**30))
+    with pytest.raises(exception, match=message):
+        nnm.Model(TWO, CHAIN, [element])
+
+
+def test_model_integers_are_checked() -> None:
+    with pytest.raises(TypeError, match=r"^cyclic must be \(sectors, dofs_per_sector\), got 2$"):
+        nnm.Model(TWO, CHAIN, cyclic=2)
+    with pytest.raises(ValueError, match=r"^cyclic=\(sectors, dofs_per_sector\) must be positive, got \(-2, -1\)$"):
+        nnm.Model(TWO, CHAIN, cyclic=(-2, -1))
+    with pytest.raises(TypeError, match=r"^cyclic sectors must be an integer, got float$"):
+        nnm.Model(TWO, CHAIN, cyclic=(2.0, 1))
+
+
+@pytest.mark.parametrize(
+    "tolerance, message",
+    [
+        (float("nan"), "tolerance must be positive and finite, got NaN"),
+        (0.0, "tolerance must be positive and finite, got 0"),
+        (-1e-8, "tolerance must be positive and finite, got -0.00000001"),
+    ],
+)
+def test_nan_zero_and_negative_tolerances_are_refused_as_by_the_command_line(tolerance, message, write_job, cli) -> None:
+    """Keyword settings are the job file's: the same range, the same message, in both."""
+    with pytest.raises(ValueError, match=f"^invalid setting: {message}$") as raised:
+        nnm.backbone(nnm.duffing(), 0, energy_max=1.0, tolerance=tolerance)
+    toml = "nan" if tolerance != tolerance else repr(tolerance)
+    job = write_job(f'[model]\nfamily = "duffing"\n[[branch]]\nname = "b"\nmode = 0\nenergy_max = 1.0\ntolerance = {toml}\n')
+    assert cli_error(cli, "run", job, "--out", job.parent / "out") == f"{job}: branch 1: {raised.value}"
+
+
+def test_plot_dofs_are_checked_before_anything_is_drawn(short_branch) -> None:
+    from nnm import plot
+
+    with pytest.raises(ValueError, match=r"^dof 5 does not exist: the motion has 1 dofs$"):
+        plot.time_series(short_branch.motion(0, samples=4), dofs=[5])
+    with pytest.raises(TypeError, match=r"^dofs must be an integer, got float$"):
+        plot.time_series(short_branch.motion(0, samples=4), dofs=[0.0])
+    with pytest.raises(ValueError, match=r"^dof 1 is not one of the branch's 1 output_dofs$"):
+        plot.amplitude([short_branch], dof=1)

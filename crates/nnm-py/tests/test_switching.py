@@ -55,8 +55,15 @@ def _child_settings(path, child: str) -> dict:
 def test_switching_is_refused_where_it_does_not_apply() -> None:
     parent = nnm.backbone(nnm.two_dof(), 0, energy_max=100.0, progress=False)
     assert [e.kind for e in parent.events] == ["branch-point"]
-    with pytest.raises(IndexError, match="has 1 event, so no event 3"):
+    with pytest.raises(ValueError, match="^the branch has 1 event, so no event 3$"):
         nnm.switch(parent, 3, energy_max=100.0)
+    with pytest.raises(ValueError, match="^the branch has 1 event, so no event -2$"):
+        nnm.switch(parent, -2, energy_max=100.0)
+    with pytest.raises(TypeError, match="^event must be an integer, got str$"):
+        nnm.switch(parent, "0", energy_max=100.0)
+    with pytest.raises(ValueError, match="^direction must be 0 or more, got -1$"):
+        nnm.switch(parent, 0, direction=-1, energy_max=100.0)
+    assert nnm.switch(parent, -1, max_points=1, progress=False).switched_from["event"] == 0
     with pytest.raises(ValueError, match="`pattern` does not apply to a branch that starts from an event"):
         nnm.switch(parent, 0, energy_max=100.0, pattern="cos")
     with pytest.raises(ValueError, match="give a stop limit"):

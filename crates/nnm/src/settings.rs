@@ -98,6 +98,31 @@ impl<'s> From<&'s Settings> for SettingsView<'s> {
     }
 }
 
+/// Checks a relative `tolerance`: positive, finite, from [`MIN_TOLERANCE`] (what double
+/// precision can meet) to below 1e-2 (looser is no result). [`Settings::validate`] holds the
+/// continuation's `tolerance` to it, and front ends hold any other relative tolerance a user
+/// gives (a sampled motion's) to the same range, with the same messages.
+// Negated comparisons are deliberate: NaN must fail them.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub fn check_tolerance(tolerance: f64) -> Result<(), SettingsError> {
+    if !(tolerance.is_finite() && tolerance > 0.0) {
+        return Err(SettingsError(format!(
+            "tolerance must be positive and finite, got {tolerance}"
+        )));
+    }
+    if tolerance >= 1e-2 {
+        return Err(SettingsError(format!(
+            "tolerance {tolerance} is too loose (use < 1e-2)"
+        )));
+    }
+    if tolerance < MIN_TOLERANCE {
+        return Err(SettingsError(format!(
+            "tolerance {tolerance:e} is below {MIN_TOLERANCE:e}, which double precision cannot meet: the periodicity residual of an integrated orbit carries round-off of ~1e-15 of the state"
+        )));
+    }
+    Ok(())
+}
+
 impl Settings {
     /// The keys of the flat (job-file) form, every group's fields.
     pub const KEYS: &'static [&'static str] = &[
@@ -150,7 +175,7 @@ impl Settings {
             }
         };
         let c = &self.continuation;
-        positive("tolerance", c.tolerance)?;
+        check_tolerance(c.tolerance)?;
         positive("initial_step", c.initial_step)?;
         positive("min_step", c.min_step)?;
         positive("max_step", c.max_step)?;
@@ -169,18 +194,6 @@ impl Settings {
         if !(s.is_finite() && s >= 0.0) {
             return fail(format!(
                 "stability_tolerance must be finite and non-negative, got {s}"
-            ));
-        }
-        if c.tolerance >= 1e-2 {
-            return fail(format!(
-                "tolerance {} is too loose (use < 1e-2)",
-                c.tolerance
-            ));
-        }
-        if c.tolerance < MIN_TOLERANCE {
-            return fail(format!(
-                "tolerance {:e} is below {MIN_TOLERANCE:e}, which double precision cannot meet: the periodicity residual of an integrated orbit carries round-off of ~1e-15 of the state",
-                c.tolerance
             ));
         }
         if c.min_step > c.max_step {

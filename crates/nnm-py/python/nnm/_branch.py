@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any, Callable, NamedTuple
 
 import numpy as np
 
-from . import _nnm
+from . import _checks, _nnm
 from ._errors import ContinuationError
 from ._labels import _parse_label
 
@@ -200,11 +200,22 @@ class Branch:
     def motion(self, i: int, samples: int = 100, tolerance: float = 1e-10) -> Motion:
         """The motion of point ``i`` over one period, at ``samples + 1`` equal times, each
         segment integrated adaptively to relative ``tolerance`` (so sampling costs no
-        accuracy)."""
-        i = range(len(self))[i]  # IndexError for a point the branch does not have
+        accuracy).
+
+        ``i`` counts as the per-point arrays do (``-1`` is the last point, as in
+        ``branch.energy[-1]``); ``samples`` is at least 1 and at most what fits in half the
+        machine's memory; ``tolerance`` is in the range a job file's ``tolerance`` takes. Any
+        other value raises ``ValueError`` (``TypeError`` for a value of the wrong type)
+        before anything is computed."""
+        # Python-style indices: the point `motion(i)` shows is the one `energy[i]` describes.
+        n = len(self)
+        points = f"{n} point{'' if n == 1 else 's'} (0 to {n - 1}, or -{n} to -1 from the end)" if n else "no points"
+        i = _checks.index("the point index", i, n, f"point {{}} does not exist: the branch has {points}")
         if self.model is None:
             raise ValueError("this branch was unpickled without its model: motion() needs the model")
-        z = self.model._native.motion(self.state0[i], float(self.period[i]), int(samples), float(tolerance))
+        samples = _checks.samples(samples, self.model.dofs)
+        tolerance = _checks.real("tolerance", tolerance)
+        z = self.model._native.motion(self.state0[i], float(self.period[i]), samples, tolerance)
         n = self.model.dofs
         t = np.linspace(0.0, self.period[i], z.shape[0])
         return Motion(t, z[:, :n], z[:, n:])
@@ -333,7 +344,9 @@ def switch(
     as for :func:`backbone` (``energy_start``, ``symmetry``, ``half_period`` and ``pattern`` do
     not apply). Its ``switched_from`` says which event and phase condition it came from.
 
-    Raises ``IndexError`` for an event the branch does not have, ``ValueError`` at a fold or
+    ``event`` counts as ``branch.events`` does (``-1`` is the last event). Raises
+    ``ValueError`` for an event the branch does not have or a negative ``direction``
+    (``TypeError`` for one that is not an integer), at a fold or
     Krein collision (no other family crosses there) or for bad settings,
     :class:`nnm.NumericalError` when no new null direction is found, and
     :class:`nnm.ContinuationError` as :func:`backbone` does.
@@ -342,6 +355,13 @@ def switch(
         raise TypeError(f"branch must be an nnm.Branch, got {type(branch).__name__}")
     if branch.model is None or branch._native is None:
         raise ValueError("this branch was unpickled without its model: switching needs the original")
+    count = len(branch.events)
+    event = _checks.index(
+        "event", event, count, f"the branch has {count} event{'' if count == 1 else 's'}, so no event {{}}"
+    )
+    direction = _checks.integer("direction", direction)
+    if direction < 0:
+        raise ValueError(f"direction must be 0 or more, got {direction}")
     options = _options(energy_max, frequency_shift_max, max_points, settings)
     model = branch.model
 

@@ -3,11 +3,12 @@ module takes. The elements are checked by the library with the job file's rules.
 
 from __future__ import annotations
 
-import operator
 from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
+
+from . import _checks
 
 
 def _dofs(dofs: int | Sequence[int]) -> list[int]:
@@ -16,7 +17,7 @@ def _dofs(dofs: int | Sequence[int]) -> list[int]:
         dofs = [int(dofs)]
     out = []
     for d in dofs:
-        i = operator.index(d)  # TypeError for floats and strings, as for any index
+        i = _checks.integer("dofs", d)  # TypeError for floats and strings, as for any index
         if i < 0:
             raise ValueError(f"dofs are 0-based and non-negative, got {i}")
         out.append(i)
@@ -35,7 +36,7 @@ class Cubic:
     coefficient: float
 
     def _spec(self) -> tuple:
-        return ("cubic", _dofs(self.dofs), float(self.coefficient), None)
+        return ("cubic", _dofs(self.dofs), _checks.real("coefficient", self.coefficient), None)
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,10 @@ class Polynomial:
     exponent: int
 
     def _spec(self) -> tuple:
-        return ("polynomial", _dofs(self.dofs), float(self.coefficient), operator.index(self.exponent))
+        exponent = _checks.integer("exponent", self.exponent)
+        if not -(2**63) <= exponent < 2**63:  # beyond what a job file can write: no library message
+            raise ValueError(f"`exponent` = {exponent} is out of range")
+        return ("polynomial", _dofs(self.dofs), _checks.real("coefficient", self.coefficient), exponent)
 
 
 def _terms(name: str, terms: Any, order: int) -> tuple[np.ndarray, np.ndarray]:
@@ -61,7 +65,10 @@ def _terms(name: str, terms: Any, order: int) -> tuple[np.ndarray, np.ndarray]:
     if isinstance(subs, tuple):
         subs = np.column_stack([np.asarray(s) for s in subs]) if subs else np.zeros((0, order))
     subs = np.asarray(subs)
-    values = np.asarray(values, dtype=np.float64).reshape(-1)
+    values = np.asarray(values)
+    if values.dtype.kind not in "iuf":  # no strings read as numbers, no complex or booleans
+        raise TypeError(f"{name} term values must be real numbers, got dtype {values.dtype}")
+    values = values.astype(np.float64).reshape(-1)
     if subs.size == 0:
         subs = subs.reshape(0, order)
     if subs.ndim != 2 or subs.shape[1] != order:

@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import functools
 import inspect
-import operator
 import os
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from . import _nnm
+from . import _checks, _nnm
 from ._branch import Branch, _follow, _options
 from ._elements import Cubic, Polynomial, Tensor, _dofs, _matrix
 from ._labels import _label, _parse_label
@@ -62,11 +61,15 @@ class Model:
                 )
             try:
                 elements.append(element._spec())
-            except ValueError as e:
-                raise ValueError(f"nonlinear element {k + 1}: {e}") from None
+            except (ValueError, TypeError) as e:
+                raise type(e)(f"nonlinear element {k + 1}: {e}") from None
         fixed = None if fixed_dofs is None else _dofs(fixed_dofs)
         if cyclic is not None:
-            cyclic = (operator.index(cyclic[0]), operator.index(cyclic[1]))
+            if isinstance(cyclic, (str, bytes)) or not hasattr(cyclic, "__len__") or len(cyclic) != 2:
+                raise TypeError(f"cyclic must be (sectors, dofs_per_sector), got {cyclic!r}")
+            cyclic = (_checks.integer("cyclic sectors", cyclic[0]), _checks.integer("cyclic dofs_per_sector", cyclic[1]))
+            if min(cyclic) < 1:
+                raise ValueError(f"cyclic=(sectors, dofs_per_sector) must be positive, got {cyclic}")
         self._native = _nnm.NativeModel.general(
             _matrix("mass", M), _matrix("stiffness", K), elements, fixed, cyclic
         )

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Iterable, Sequence
 
 import numpy as np
 
+from . import _checks
+
 if TYPE_CHECKING:
     import matplotlib.axes
 
@@ -101,6 +103,10 @@ def amplitude(
     ``dof``-th of the branch's ``output_dofs``) against frequency (rad/s, or Hz with ``hz``),
     stable parts solid, unstable dashed — the curve a test engineer compares with a measured
     backbone."""
+    branches = list(branches)
+    for branch in branches:  # every branch checked before anything is drawn
+        count = len(branch.output_dofs)
+        _checks.index("dof", dof, count, f"dof {{}} is not one of the branch's {count} output_dofs")
     ax = _axes(ax)
     for k, branch in enumerate(branches):
         label = labels[k] if labels is not None else f"mode {branch.mode_label or branch.mode}"
@@ -141,8 +147,10 @@ def time_series(
 ) -> "matplotlib.axes.Axes":
     """Displacements of ``dofs`` (default: all, up to 10) over one period of a
     :meth:`Branch.motion`."""
+    n = motion.x.shape[1]
+    message = f"dof {{}} does not exist: the motion has {n} dofs"
+    chosen = [_checks.index("dofs", d, n, message) for d in dofs] if dofs is not None else list(range(min(n, 10)))
     ax = _axes(ax)
-    chosen = list(dofs) if dofs is not None else list(range(min(motion.x.shape[1], 10)))
     for d in chosen:
         ax.plot(motion.t, motion.x[:, d], label=f"x{d}")
     ax.set_xlabel("time (s)")

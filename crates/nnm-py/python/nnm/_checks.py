@@ -1,0 +1,80 @@
+"""The numbers a caller hands the API, checked before anything is computed or allocated: a
+value of the wrong type is a ``TypeError`` (a string is not a number, even one that reads as
+one), a value out of range a ``ValueError``, each with a one-line message naming the argument.
+
+The types follow the job file's, as the keyword settings do (``convert.rs``): an integer is
+anything with ``__index__``, a real number anything with ``__float__``; a boolean is neither
+(a job file's ``true`` is not 1), nor is a complex number."""
+
+from __future__ import annotations
+
+import operator
+import os
+from typing import Any
+
+import numpy as np
+
+
+def _is_bool(value: Any) -> bool:
+    return isinstance(value, (bool, np.bool_))
+
+
+def integer(name: str, value: Any) -> int:
+    """``value`` as an int: a ``TypeError`` unless it is an integer (numpy's too)."""
+    if _is_bool(value) or not hasattr(type(value), "__index__"):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    return operator.index(value)
+
+
+def real(name: str, value: Any) -> float:
+    """``value`` as a float: a ``TypeError`` unless it is a real number (an int, a float,
+    numpy's scalars); NaN and infinities pass, for the library's own message."""
+    if _is_bool(value) or isinstance(value, (complex, np.complexfloating)) or not hasattr(type(value), "__float__"):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    try:
+        return float(value)
+    except (TypeError, ValueError):  # an array of several values
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}") from None
+
+
+def index(name: str, value: Any, count: int, message: str) -> int:
+    """``value`` as an index into ``count`` items, Python-style (``-1`` is the last), made
+    non-negative; out of range a ``ValueError`` with ``message`` (formatted with ``value``)."""
+    i = integer(name, value)
+    if not -count <= i < count:
+        raise ValueError(message.format(i))
+    return i + count if i < 0 else i
+
+
+# Physical memory assumed where the system does not say (Windows): a modest machine's.
+_FALLBACK_MEMORY = 8 * 2**30
+
+
+def physical_memory() -> int:
+    """The machine's physical memory in bytes."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return _FALLBACK_MEMORY
+
+
+def samples(value: Any, dofs: int) -> int:
+    """A motion's sample count: an integer from 1 up to what fits in half the machine's memory.
+
+    At its peak a call holds every sample twice (the library's list of states, then the numpy
+    array it is copied into): ``2 × 2n`` doubles, plus the list's ~64 bytes per state and the
+    time value — ``32 n + 72`` bytes a sample. Half the physical memory leaves the rest for
+    the process and the machine; beyond it the allocation would fail (aborting the
+    interpreter) or swap for hours, long before the integration could finish."""
+    count = integer("samples", value)
+    if count < 1:
+        raise ValueError(f"samples must be at least 1, got {count}")
+    per_sample = 32 * dofs + 72
+    budget = physical_memory() // 2
+    most = budget // per_sample - 1
+    if count > most:
+        raise ValueError(
+            f"samples={count} would need {(count + 1) * per_sample / 1e9:.3g} GB for a motion of {dofs} dofs, "
+            f"more than half of this machine's {2 * budget / 1e9:.3g} GB of memory: at most {most} samples"
+        )
+    return count
