@@ -12,6 +12,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::number::Number;
+
 pub use crate::continuation::{ContinuationSettings, MIN_TOLERANCE, SettingsError};
 pub use crate::floquet::StabilitySettings;
 pub use crate::integrate::IntegrationSettings;
@@ -146,7 +148,10 @@ impl Settings {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                fail(format!("{name} must be positive and finite, got {v}"))
+                fail(format!(
+                    "{name} must be positive and finite, got {}",
+                    Number(v)
+                ))
             }
         };
         let c = &self.continuation;
@@ -159,22 +164,26 @@ impl Settings {
         if self.integration.integration_factor > 1.0 {
             return fail(format!(
                 "integration_factor {} must not exceed 1 (the integrator must be at least as accurate as the shooting tolerance)",
-                self.integration.integration_factor
+                Number(self.integration.integration_factor)
             ));
         }
         if c.max_turn_angle > std::f64::consts::PI {
-            return fail(format!("max_turn_angle {} exceeds π", c.max_turn_angle));
+            return fail(format!(
+                "max_turn_angle {} exceeds π",
+                Number(c.max_turn_angle)
+            ));
         }
         let s = self.stability.stability_tolerance;
         if !(s.is_finite() && s >= 0.0) {
             return fail(format!(
-                "stability_tolerance must be finite and non-negative, got {s}"
+                "stability_tolerance must be finite and non-negative, got {}",
+                Number(s)
             ));
         }
         if c.tolerance >= 1e-2 {
             return fail(format!(
                 "tolerance {} is too loose (use < 1e-2)",
-                c.tolerance
+                Number(c.tolerance)
             ));
         }
         if c.tolerance < MIN_TOLERANCE {
@@ -194,7 +203,7 @@ impl Settings {
             ("frequency_shift_max", l.frequency_shift_max),
         ] {
             if !(v > 0.0) {
-                return fail(format!("{name} must be positive, got {v}"));
+                return fail(format!("{name} must be positive, got {}", Number(v)));
             }
         }
         for (name, values, what) in [
@@ -206,7 +215,10 @@ impl Settings {
             ),
         ] {
             if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
-                return fail(format!("{name} must hold positive, finite {what}, got {v}"));
+                return fail(format!(
+                    "{name} must hold positive, finite {what}, got {}",
+                    Number(*v)
+                ));
             }
         }
         if self.limits.max_points == 0 || c.max_iterations == 0 {
@@ -215,7 +227,10 @@ impl Settings {
         if let Some(e) = self.start.energy_start
             && !(e.is_finite() && e > 0.0)
         {
-            return fail(format!("energy_start must be positive and finite, got {e}"));
+            return fail(format!(
+                "energy_start must be positive and finite, got {}",
+                Number(e)
+            ));
         }
         // The branch starts near energy_start and rises: starting at or past the limit would
         // spend a Newton solve on a point the limit then discards.
@@ -223,8 +238,9 @@ impl Settings {
             && e >= l.energy_max
         {
             return fail(format!(
-                "energy_start {e} must be below energy_max {} (the branch starts there and rises towards it)",
-                l.energy_max
+                "energy_start {} must be below energy_max {} (the branch starts there and rises towards it)",
+                Number(e),
+                Number(l.energy_max)
             ));
         }
         Ok(())
