@@ -6,6 +6,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 static QUIET: AtomicBool = AtomicBool::new(false);
 
+/// Whether a progress line went to stderr ([`line`]).
+static SAID: AtomicBool = AtomicBool::new(false);
+
 /// Silences [`say!`] for the rest of the process.
 pub fn set_quiet(quiet: bool) {
     QUIET.store(quiet, Ordering::Relaxed);
@@ -16,11 +19,27 @@ pub fn quiet() -> bool {
     QUIET.load(Ordering::Relaxed)
 }
 
-/// `eprintln!` unless `--quiet`.
+/// A progress line on stderr (whatever `--quiet` says: the caller decides), remembered for
+/// [`separate`].
+pub fn line(text: std::fmt::Arguments<'_>) {
+    eprintln!("{text}");
+    SAID.store(true, Ordering::Relaxed);
+}
+
+/// A blank line on stderr between the progress lines and what follows them (the summary,
+/// the `error:` line) — none when no line came before, so that stderr never starts with a
+/// blank line (a run whose only branch failed before its first point says just its error).
+pub fn separate() {
+    if SAID.load(Ordering::Relaxed) {
+        eprintln!();
+    }
+}
+
+/// [`line`] unless `--quiet`.
 macro_rules! say {
     ($($arg:tt)*) => {
         if !$crate::progress::quiet() {
-            eprintln!($($arg)*);
+            $crate::progress::line(format_args!($($arg)*));
         }
     };
 }

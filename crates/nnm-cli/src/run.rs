@@ -44,7 +44,7 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     // Quiet means errors only: nothing on a successful run. When a branch failed, stopped
     // early or was interrupted, the summary says which, beside the `error: ...` line.
     if !quiet {
-        eprintln!();
+        crate::progress::separate();
     }
     if !quiet || verdict.is_err() {
         print_summary(&outcomes, &modes);
@@ -120,10 +120,10 @@ fn warn_of_foreign_branches(out: &Path, branches: &[BranchJob]) {
     let names: Vec<String> = branches.iter().map(|b| b.name.clone()).collect();
     let foreign = foreign_branches(out, &names);
     if !foreign.is_empty() {
-        eprintln!(
+        crate::progress::line(format_args!(
             "warning: {} holds results of branches not in this job ({}); they are left as they are and not plotted",
             out.display(),
             foreign.join(", ")
-        );
+        ));
     }
 }

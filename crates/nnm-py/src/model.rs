@@ -411,6 +411,7 @@ impl NativeModel {
                     stats: Default::default(),
                     omega: start.omega,
                     missed_requests: Vec::new(),
+                    integrator: None,
                 };
                 branch_dict(py, &empty, &context, &out)?;
                 out.set_item("stop", e.to_string())?;

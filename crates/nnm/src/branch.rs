@@ -10,6 +10,7 @@ use std::ops::ControlFlow;
 use crate::analysis::Home;
 use crate::bifurcation::{BifurcationDetector, Event};
 use crate::continuation::{Continuation, ContinuationError, Item, Segment, Solution};
+use crate::integrate::IntegrationMethod;
 use crate::model::MechanicalSystem;
 use crate::settings::{Limits, Settings};
 use crate::shooting::{
@@ -89,6 +90,10 @@ pub struct Branch {
     /// Requested values (`at_energies`, `at_frequencies`) without a point on the branch, and
     /// why (docs/method.md eq. (26b)).
     pub missed_requests: Vec<MissedRequest>,
+    /// The integration method the branch ran ([`Shooting::method`]: `auto` resolved for the
+    /// model; `None` for an integrator plugged into the shooting problem), which says what a
+    /// reciprocity defect of its multipliers means.
+    pub integrator: Option<IntegrationMethod>,
 }
 
 /// Receives a branch's results as soon as they are found, so that a caller can write them out
@@ -288,6 +293,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
         stats,
         omega: start.omega,
         missed_requests: missed,
+        integrator: shooting.method(),
     })
 }
 

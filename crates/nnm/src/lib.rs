@@ -50,6 +50,7 @@ pub mod krylov;
 pub(crate) mod linalg;
 pub mod model;
 pub mod modes;
+pub mod number;
 #[cfg(test)]
 mod reference;
 pub mod settings;

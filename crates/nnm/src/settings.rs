@@ -12,6 +12,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::number::Number;
+
 pub use crate::continuation::{ContinuationSettings, MIN_TOLERANCE, SettingsError};
 pub use crate::floquet::StabilitySettings;
 pub use crate::integrate::IntegrationSettings;
@@ -107,12 +109,14 @@ impl<'s> From<&'s Settings> for SettingsView<'s> {
 pub fn check_tolerance(tolerance: f64) -> Result<(), SettingsError> {
     if !(tolerance.is_finite() && tolerance > 0.0) {
         return Err(SettingsError(format!(
-            "tolerance must be positive and finite, got {tolerance}"
+            "tolerance must be positive and finite, got {}",
+            Number(tolerance)
         )));
     }
     if tolerance >= 1e-2 {
         return Err(SettingsError(format!(
-            "tolerance {tolerance} is too loose (use < 1e-2)"
+            "tolerance {} is too loose (use < 1e-2)",
+            Number(tolerance)
         )));
     }
     if tolerance < MIN_TOLERANCE {
@@ -171,7 +175,10 @@ impl Settings {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                fail(format!("{name} must be positive and finite, got {v}"))
+                fail(format!(
+                    "{name} must be positive and finite, got {}",
+                    Number(v)
+                ))
             }
         };
         let c = &self.continuation;
@@ -184,16 +191,20 @@ impl Settings {
         if self.integration.integration_factor > 1.0 {
             return fail(format!(
                 "integration_factor {} must not exceed 1 (the integrator must be at least as accurate as the shooting tolerance)",
-                self.integration.integration_factor
+                Number(self.integration.integration_factor)
             ));
         }
         if c.max_turn_angle > std::f64::consts::PI {
-            return fail(format!("max_turn_angle {} exceeds π", c.max_turn_angle));
+            return fail(format!(
+                "max_turn_angle {} exceeds π",
+                Number(c.max_turn_angle)
+            ));
         }
         let s = self.stability.stability_tolerance;
         if !(s.is_finite() && s >= 0.0) {
             return fail(format!(
-                "stability_tolerance must be finite and non-negative, got {s}"
+                "stability_tolerance must be finite and non-negative, got {}",
+                Number(s)
             ));
         }
         if c.min_step > c.max_step {
@@ -207,7 +218,7 @@ impl Settings {
             ("frequency_shift_max", l.frequency_shift_max),
         ] {
             if !(v > 0.0) {
-                return fail(format!("{name} must be positive, got {v}"));
+                return fail(format!("{name} must be positive, got {}", Number(v)));
             }
         }
         for (name, values, what) in [
@@ -219,7 +230,10 @@ impl Settings {
             ),
         ] {
             if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
-                return fail(format!("{name} must hold positive, finite {what}, got {v}"));
+                return fail(format!(
+                    "{name} must hold positive, finite {what}, got {}",
+                    Number(*v)
+                ));
             }
         }
         if self.limits.max_points == 0 || c.max_iterations == 0 {
@@ -228,7 +242,10 @@ impl Settings {
         if let Some(e) = self.start.energy_start
             && !(e.is_finite() && e > 0.0)
         {
-            return fail(format!("energy_start must be positive and finite, got {e}"));
+            return fail(format!(
+                "energy_start must be positive and finite, got {}",
+                Number(e)
+            ));
         }
         // The branch starts near energy_start and rises: starting at or past the limit would
         // spend a Newton solve on a point the limit then discards.
@@ -236,8 +253,9 @@ impl Settings {
             && e >= l.energy_max
         {
             return fail(format!(
-                "energy_start {e} must be below energy_max {} (the branch starts there and rises towards it)",
-                l.energy_max
+                "energy_start {} must be below energy_max {} (the branch starts there and rises towards it)",
+                Number(e),
+                Number(l.energy_max)
             ));
         }
         Ok(())

@@ -115,7 +115,7 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
     let branch_seconds = started.elapsed().as_secs_f64();
     let failed = failures(&outcomes);
     if !options.quiet {
-        eprintln!();
+        crate::progress::separate();
     }
     // Quiet: the summary only when something went wrong (it says which branch).
     if !options.quiet || !failed.is_empty() || crate::interrupt::requested() {

@@ -60,20 +60,19 @@ pub fn compute_branch(
                 return Ok(branch);
             }
             let _guard = log.lock();
-            eprintln!(
+            crate::progress::line(format_args!(
                 "[{}] done: {} points, {} events, {stop}",
                 info.name,
                 branch.points.len(),
                 branch.events.len(),
-            );
+            ));
             // A requested value without a point is said (and kept in the JSON), not dropped.
             for missed in &branch.missed_requests {
-                eprintln!("[{}] warning: {missed}", info.name);
+                crate::progress::line(format_args!("[{}] warning: {missed}", info.name));
             }
             // A conservative orbit's multipliers come in pairs (μ, 1/μ); members without a
-            // partner are modes the integrator damped because it does not resolve them
-            // (Radau IIA on a fine mesh, by design: docs/method.md §6). Said, since the
-            // stability verdicts then see only the resolved modes.
+            // partner mean what the integrator the branch ran makes them mean. Said, since the
+            // stability verdicts rest on them.
             let defect = branch
                 .points
                 .iter()
@@ -81,16 +80,11 @@ pub fn compute_branch(
                 .filter(|d| d.is_finite())
                 .fold(0.0, f64::max);
             if defect > RECIPROCITY_WARNING {
-                let damping: Vec<&str> = IntegrationMethod::ALL
-                    .into_iter()
-                    .filter(|m| m.damps_unresolved_modes())
-                    .map(IntegrationMethod::name)
-                    .collect();
-                eprintln!(
-                    "[{}] warning: Floquet multipliers lack reciprocal partners by up to {defect:.1e}: the integrator damps modes it does not resolve ({} does by design), so the stability verdicts see only the resolved modes",
+                crate::progress::line(format_args!(
+                    "[{}] warning: Floquet multipliers lack reciprocal partners by up to {defect:.1e}: {}",
                     info.name,
-                    damping.join(", ")
-                );
+                    reciprocity_cause(branch.integrator)
+                ));
             }
             Ok(branch)
         }
@@ -98,6 +92,29 @@ pub fn compute_branch(
             interrupt::writing(|| writer.fail(&e.to_string()))?;
             Err(e.into())
         }
+    }
+}
+
+/// What a reciprocity defect above [`RECIPROCITY_WARNING`] means for a branch integrated by
+/// `method`: modes damped by design (Radau IIA on a fine mesh: docs/method.md §6), or, for a
+/// method that damps nothing (the explicit pairs, symplectic Gauss–Legendre), an integration
+/// not accurate enough for the multipliers, with the setting that makes it more accurate.
+fn reciprocity_cause(method: Option<IntegrationMethod>) -> String {
+    match method {
+        Some(m) if m.damps_unresolved_modes() => format!(
+            "{} damps the modes its step does not resolve (by design), so the stability verdicts see only the resolved modes",
+            m.name()
+        ),
+        Some(m) => format!(
+            "{} damps no mode by design, so this is the integration's error and the stability verdicts may be wrong; a smaller {} makes it more accurate",
+            m.name(),
+            if m.is_collocation() {
+                "`tolerance`"
+            } else {
+                "`integration_factor` (or `tolerance`)"
+            }
+        ),
+        None => "the integrator damps modes it does not resolve or is not accurate enough, so the stability verdicts may be wrong".into(),
     }
 }
 

@@ -88,10 +88,10 @@ pub fn compute_all(
                     let done = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                     if total > 1 && !quiet {
                         let _guard = log.lock();
-                        eprintln!(
+                        crate::progress::line(format_args!(
                             "progress: {done}/{total} branches done ({:.1} s)",
                             clock.elapsed().as_secs_f64()
-                        );
+                        ));
                     }
                     let (result, start) = match result {
                         Ok((branch, start)) => (Ok(branch), Some(start)),

@@ -42,7 +42,7 @@ impl<F> Writing<'_, F> {
         }
         if !self.quiet {
             let _guard = self.log.lock();
-            eprintln!("[{}] {}", self.info.name, line());
+            crate::progress::line(format_args!("[{}] {}", self.info.name, line()));
         }
         if interrupt::requested() {
             return ControlFlow::Break(());
@@ -60,7 +60,7 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<&'static str>> Observer for &mut Writ
         let elapsed = self.since_point.elapsed();
         if !self.quiet && elapsed > SLOW_POINT {
             let _guard = self.log.lock();
-            eprintln!(
+            crate::progress::line(format_args!(
                 "[{}] point {:>3} in progress: evaluation {}, relative residual {:.2e}, T = {:.6e} s ({:.1} s)",
                 self.info.name,
                 self.points,
@@ -68,7 +68,7 @@ impl<F: FnMut(&BranchPoint) -> ControlFlow<&'static str>> Observer for &mut Writ
                 e.relative_residual,
                 e.period,
                 elapsed.as_secs_f64()
-            );
+            ));
         }
     }
 

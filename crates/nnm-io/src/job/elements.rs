@@ -93,7 +93,10 @@ pub fn spring(
     };
     let coefficient = coefficient.ok_or_else(|| format!("a {kind} element needs `coefficient`"))?;
     if !coefficient.is_finite() {
-        return Err(format!("coefficient must be finite, got {coefficient}"));
+        return Err(format!(
+            "coefficient must be finite, got {}",
+            nnm::number::Number(coefficient)
+        ));
     }
     let dofs = dofs.ok_or_else(|| format!("a {kind} element needs `dofs`"))?;
     let (i, j) = match dofs {

@@ -148,16 +148,8 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
             Some(_) => return Err(invalid(context("`name` must be a string"))),
             None => return Err(invalid(context("missing `name`"))),
         };
-        let valid_name = name != "modes"
-            && !name.is_empty()
-            && name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
-            && !name.starts_with('.');
-        if !valid_name {
-            return Err(invalid(context(&format!(
-                "name `{name}` must be non-empty, not `modes`, and use only letters, digits, '-', '_', '.'"
-            ))));
+        if let Err(why) = check_branch_name(&name) {
+            return Err(invalid(context(&why)));
         }
         if branches.iter().any(|b: &BranchJob| b.name == name) {
             return Err(invalid(format!("duplicate branch name `{name}`")));
@@ -204,6 +196,37 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
         branches,
         default_settings,
     })
+}
+
+/// A branch's name names its files (`NAME.csv`, `NAME.json`, ...): refused, with the rule it
+/// breaks and the characters at fault (none the name may use), when it is empty, `modes`
+/// (the linear modes' file), starts with '.' (a hidden file), or holds a character other than
+/// an ASCII letter, digit, '-', '_' or '.'.
+fn check_branch_name(name: &str) -> Result<(), String> {
+    let mut refused: Vec<char> = Vec::new();
+    for c in name.chars() {
+        if !(c.is_ascii_alphanumeric() || "-_.".contains(c) || refused.contains(&c)) {
+            refused.push(c);
+        }
+    }
+    if name.is_empty() {
+        Err("`name` is empty; a branch's name names its files".into())
+    } else if name == "modes" {
+        Err("name `modes` would overwrite the linear modes' file modes.csv: use a name that is not `modes`".into())
+    } else if !refused.is_empty() {
+        let listed: Vec<String> = refused.iter().map(|c| format!("{c:?}")).collect();
+        Err(format!(
+            "name `{}` holds {}, which a branch name cannot: it names the branch's files, so it may use only ASCII letters, digits, '-', '_' and '.'",
+            name.escape_debug(),
+            listed.join(", ")
+        ))
+    } else if name.starts_with('.') {
+        Err(format!(
+            "name `{name}` starts with '.', which would hide the branch's files: start it with a letter, a digit, '-' or '_'"
+        ))
+    } else {
+        Ok(())
+    }
 }
 
 fn syntax_error(e: &toml::de::Error, text: &str, path: &Path) -> JobError {

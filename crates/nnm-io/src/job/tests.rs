@@ -821,3 +821,122 @@ fn family_parameter_errors_keep_their_place() {
         assert_eq!(error(text), expected);
     }
 }
+
+/// A refused number is shown short and exact, the same way in every message: `{}` of an `f64`
+/// prints 1e300 as 301 digits and 1e-300 as 302 characters (issue 29).
+#[test]
+fn refused_numbers_are_shown_short() {
+    let branch = "[model]\nfamily = \"two-dof\"\n[[branch]]\nname = \"a\"\nmode = 0\n";
+    let cases: &[(String, &str)] = &[
+        (
+            format!("{branch}energy_max = -1e300"),
+            "job.toml: branch 1: invalid setting: energy_max must be positive, got -1e300",
+        ),
+        (
+            format!("{branch}frequency_shift_max = -1e-300"),
+            "job.toml: branch 1: invalid setting: frequency_shift_max must be positive, got -1e-300",
+        ),
+        (
+            format!("{branch}energy_max = 1.0\ninitial_step = -1e300"),
+            "job.toml: branch 1: invalid setting: initial_step must be positive and finite, got -1e300",
+        ),
+        (
+            format!("{branch}energy_max = 1.0\ntolerance = 1e300"),
+            "job.toml: branch 1: invalid setting: tolerance 1e300 is too loose (use < 1e-2)",
+        ),
+        (
+            format!("{branch}energy_max = 1.0\nintegration_factor = 1e200"),
+            "job.toml: branch 1: invalid setting: integration_factor 1e200 must not exceed 1 (the integrator must be at least as accurate as the shooting tolerance)",
+        ),
+        (
+            format!("{branch}energy_max = 1.0\nmax_turn_angle = 1e100"),
+            "job.toml: branch 1: invalid setting: max_turn_angle 1e100 exceeds π",
+        ),
+        (
+            format!("{branch}energy_max = 1.0\nstability_tolerance = -1e300"),
+            "job.toml: branch 1: invalid setting: stability_tolerance must be finite and non-negative, got -1e300",
+        ),
+        (
+            format!("{branch}energy_max = 1.0\nat_frequencies = [1.5, -1e300]"),
+            "job.toml: branch 1: invalid setting: at_frequencies must hold positive, finite frequencies (rad/s), got -1e300",
+        ),
+        (
+            format!("{branch}energy_max = 1e300\nenergy_start = 1e301"),
+            "job.toml: branch 1: invalid setting: energy_start 1e301 must be below energy_max 1e300 (the branch starts there and rises towards it)",
+        ),
+        (
+            "[model]\nfamily = \"bladed-disk\"\nblade_mass = -1e300".into(),
+            "blade_mass must be positive and finite, got -1e300",
+        ),
+        (
+            "[model]\nfamily = \"bladed-disk\"\nsectors = 2\nblade_stiffness_mistuning = [0.0, -1e300]"
+                .into(),
+            "blade_stiffness_mistuning[1] = -1e300: a deviation must be finite and above -1 (k_i = k (1 + deviation))",
+        ),
+        (
+            "[model]\nfamily = \"cantilever-beam\"\nlength = -1e-300".into(),
+            "length must be positive and finite, got -1e-300",
+        ),
+        (
+            "[model]\nfamily = \"von-karman-beam\"\ndensity = -1e300".into(),
+            "density must be positive and finite, got -1e300",
+        ),
+    ];
+    for (text, expected) in cases {
+        let e = error(text);
+        assert!(
+            e.ends_with(expected),
+            "for {text:?}: got `{e}`, expected `{expected}`"
+        );
+        assert!(!e.contains("00000"), "{e}");
+    }
+}
+
+/// A refused branch name is told the rule it breaks and the characters at fault, and never
+/// has the characters it may use listed against it (issue 29).
+#[test]
+fn branch_names_are_refused_with_the_characters_at_fault() {
+    let job = |name: &str| {
+        format!(
+            "[model]\nfamily = \"two-dof\"\n[[branch]]\nname = {}\nmode = 0\nenergy_max = 1.0\n",
+            toml::Value::String(name.into())
+        )
+    };
+    let rule =
+        "it names the branch's files, so it may use only ASCII letters, digits, '-', '_' and '.'";
+    for (name, expected) in [
+        (
+            "mode 1.5",
+            format!("job.toml: branch 1: name `mode 1.5` holds ' ', which a branch name cannot: {rule}"),
+        ),
+        (
+            "a/b/c d",
+            format!("job.toml: branch 1: name `a/b/c d` holds '/', ' ', which a branch name cannot: {rule}"),
+        ),
+        (
+            "é-1",
+            format!("job.toml: branch 1: name `é-1` holds 'é', which a branch name cannot: {rule}"),
+        ),
+        (
+            "a\nb",
+            format!("job.toml: branch 1: name `a\\nb` holds '\\n', which a branch name cannot: {rule}"),
+        ),
+        (
+            ".hidden",
+            "job.toml: branch 1: name `.hidden` starts with '.', which would hide the branch's files: start it with a letter, a digit, '-' or '_'".into(),
+        ),
+        (
+            "modes",
+            "job.toml: branch 1: name `modes` would overwrite the linear modes' file modes.csv: use a name that is not `modes`".into(),
+        ),
+        (
+            "",
+            "job.toml: branch 1: `name` is empty; a branch's name names its files".into(),
+        ),
+    ] {
+        assert_eq!(error(&job(name)), expected, "{name:?}");
+    }
+    for name in ["mode-1.5_b", "_x", "-", "a.b.c", "A9"] {
+        parse(&job(name)).unwrap_or_else(|e| panic!("{name:?}: {e}"));
+    }
+}

@@ -454,7 +454,8 @@ pub(crate) fn check_request(
     }
     if !(duration.is_finite() && duration > 0.0) {
         return Err(IntegrationError::InvalidInput(format!(
-            "duration must be positive, got {duration}"
+            "duration must be positive, got {}",
+            crate::number::Number(duration)
         )));
     }
     if let Some(b) = sensitivity

@@ -301,7 +301,9 @@ impl<'a, S: MechanicalSystem + ?Sized> RungeKutta<'a, S> {
         }
         if replay.is_none() && (t - duration).abs() > 1e-12 * duration {
             return Err(IntegrationError::InvalidInput(format!(
-                "integration stopped at t = {t} before T = {duration}"
+                "integration stopped at t = {} before T = {}",
+                crate::number::Number(t),
+                crate::number::Number(duration)
             )));
         }
         let mut sensitivity = vec![0.0; n2 * columns];

@@ -2,6 +2,7 @@
 //! integrators are for.
 
 use super::{ModelError, NonlinearElement, PolynomialSpring, SparseMatrix, Structure};
+use crate::number::Number;
 
 /// A clamped–free Euler–Bernoulli beam of `elements` two-node Hermite elements (transverse
 /// displacement `w` and rotation `θ` per node, consistent mass), with a cubic spring
@@ -71,14 +72,15 @@ impl CantileverBeam {
         ] {
             if !(value.is_finite() && value > 0.0) {
                 return Err(ModelError::InvalidParameter(format!(
-                    "{name} must be positive and finite, got {value}"
+                    "{name} must be positive and finite, got {}",
+                    Number(value)
                 )));
             }
         }
         if !self.cubic.is_finite() {
             return Err(ModelError::InvalidParameter(format!(
                 "cubic must be finite, got {}",
-                self.cubic
+                Number(self.cubic)
             )));
         }
         let le = self.length / self.elements as f64;

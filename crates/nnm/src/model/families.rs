@@ -4,6 +4,7 @@ use super::{
     CyclicSymmetry, ModelError, NonlinearElement, PolynomialSpring, SparseMatrix, Structure,
 };
 use crate::linalg::Mat;
+use crate::number::Number;
 use serde::{Deserialize, Serialize};
 
 fn positive(name: &str, value: f64) -> Result<(), ModelError> {
@@ -11,7 +12,8 @@ fn positive(name: &str, value: f64) -> Result<(), ModelError> {
         Ok(())
     } else {
         Err(ModelError::InvalidParameter(format!(
-            "{name} must be positive and finite, got {value}"
+            "{name} must be positive and finite, got {}",
+            Number(value)
         )))
     }
 }
@@ -21,7 +23,8 @@ fn finite(name: &str, value: f64) -> Result<(), ModelError> {
         Ok(())
     } else {
         Err(ModelError::InvalidParameter(format!(
-            "{name} must be finite, got {value}"
+            "{name} must be finite, got {}",
+            Number(value)
         )))
     }
 }
@@ -170,7 +173,8 @@ impl BladedDisk {
             .find(|(_, d)| !(d.is_finite() && **d > -1.0))
         {
             return Err(ModelError::InvalidParameter(format!(
-                "blade_stiffness_mistuning[{i}] = {d}: a deviation must be finite and above -1 (k_i = k (1 + deviation))"
+                "blade_stiffness_mistuning[{i}] = {}: a deviation must be finite and above -1 (k_i = k (1 + deviation))",
+                Number(*d)
             )));
         }
         let n = 2 * n_s;

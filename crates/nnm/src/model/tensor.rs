@@ -100,8 +100,9 @@ impl TensorError {
                 term,
                 value,
             } => format!(
-                "{degree} term {} has a non-finite coefficient {value}",
-                term + base
+                "{degree} term {} has a non-finite coefficient {}",
+                term + base,
+                crate::number::Number(*value)
             ),
             TensorError::NotGradient {
                 degree,

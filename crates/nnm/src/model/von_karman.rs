@@ -8,6 +8,7 @@
 use std::sync::Arc;
 
 use super::{Block, BlockMut, ModelError, NonlinearElement, SparseMatrix, Structure};
+use crate::number::Number;
 
 /// A straight beam clamped at both ends, `elements` two-node elements, with von Kármán
 /// kinematics: the membrane strain `ε = u' + ½ w'²` couples the axial displacement `u` to the
@@ -337,7 +338,8 @@ impl VonKarmanBeam {
         ] {
             if !(value.is_finite() && value > 0.0) {
                 return Err(ModelError::InvalidParameter(format!(
-                    "{name} must be positive and finite, got {value}"
+                    "{name} must be positive and finite, got {}",
+                    Number(value)
                 )));
             }
         }

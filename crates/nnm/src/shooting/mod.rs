@@ -146,7 +146,7 @@ pub enum ShootingError {
     #[error(transparent)]
     Integration(#[from] IntegrationError),
     /// The unknowns give a period that is not positive and finite (the value held).
-    #[error("non-positive period {0}")]
+    #[error("non-positive period {}", crate::number::Number(*.0))]
     NonPositivePeriod(f64),
     /// The converged point's energy is NaN or infinite.
     #[error("non-finite energy {0}")]
@@ -198,6 +198,9 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     /// State directions of the unknowns, `2n × m`.
     state_basis: Vec<f64>,
     integrator: Box<dyn Integrator + 'a>,
+    /// The method `integrator` runs, resolved from `auto`; `None` once
+    /// [`Self::with_integrator`] plugged in another.
+    method: Option<IntegrationMethod>,
     floquet: Box<dyn FloquetSolver>,
     first_step: Option<f64>,
     /// `z_ref` of the flow-orthogonal phase condition: the last accepted point's `z0`.
@@ -425,6 +428,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             period_ref: 2.0 * std::f64::consts::PI / omega_ref,
             state_basis,
             integrator,
+            method: Some(method),
             floquet: Box::new(DenseFloquet),
             first_step: None,
             phase_reference,
@@ -457,7 +461,15 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
     pub fn with_integrator(mut self, mut integrator: Box<dyn Integrator + 'a>) -> Self {
         integrator.set_tolerances(self.integrator.tolerances());
         self.integrator = integrator;
+        self.method = None;
         self
+    }
+
+    /// The integration method in use: the settings' `integrator`, resolved from `auto` for
+    /// this model and formulation; `None` for an integrator plugged in by
+    /// [`Self::with_integrator`].
+    pub fn method(&self) -> Option<IntegrationMethod> {
+        self.method
     }
 
     /// Replaces the Floquet solver (the dense full-spectrum one by default).

@@ -128,7 +128,8 @@ impl Start {
             Some(e) if e.is_finite() && e > 0.0 => (2.0 * e).sqrt() / mode.frequency,
             Some(e) => {
                 return Err(StartError::Invalid(format!(
-                    "start energy must be positive, got {e}"
+                    "start energy must be positive, got {}",
+                    crate::number::Number(e)
                 )));
             }
             None => weakly_nonlinear_amplitude(system, &mode.shape, 1e-4),
@@ -293,7 +294,8 @@ impl Start {
         }
         if !(period.is_finite() && period > 0.0) || z0.iter().any(|v| !v.is_finite()) {
             return Err(StartError::Invalid(format!(
-                "the period must be positive and the state finite (period {period})"
+                "the period must be positive and the state finite (period {})",
+                crate::number::Number(period)
             )));
         }
         let modes = linear_modes(system)?;
