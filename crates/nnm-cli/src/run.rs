@@ -31,12 +31,12 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
         add_labelled_mode(&job.structure, &mut modes, &b.mode, b.pattern)
             .with_context(|| format!("branch `{}`: modal analysis failed", b.name))?;
     }
-    let requests = resolve(&job.branches, &modes)?;
+    let requests = resolve(&job.structure, &job.branches, &modes)?;
     let _lock = OutDir::lock(out)?;
     warn_of_foreign_branches(out, &job.branches);
     write_modes_csv(&out.join("modes.csv"), &modes)?;
     let clock = Instant::now();
-    let outcomes = compute_all(&job.structure, &modes, requests, out, threads, quiet)?;
+    let outcomes = compute_all(&job.structure, requests, out, threads, quiet)?;
     fep::plot(&outcomes, &modes, &out.join("fep"), "Frequency-energy plot")?;
     fep::amplitude_plot(&outcomes, &modes, &out.join("amplitude"))?;
     let early = stopped_early(&outcomes);

@@ -321,6 +321,15 @@ fn run_writes_csv_and_json_per_branch() {
     assert!((f * t - 2.0 * std::f64::consts::PI).abs() < 1e-12);
     assert!((f - 1.0).abs() < 1e-3);
     assert!(out.join("fep.png").exists() && out.join("fep.svg").exists());
+    // Every file the run wrote is one the job's check of colliding file names knows of (a
+    // branch's, or the run's own): a new one must join that check.
+    let known: Vec<String> = nnm_io::output::branch_files("b")
+        .chain(nnm_io::output::RUN_FILES.iter().map(|f| f.to_string()))
+        .collect();
+    for entry in std::fs::read_dir(&out).unwrap() {
+        let file = entry.unwrap().file_name().into_string().unwrap();
+        assert!(known.contains(&file), "{file} is not in RUN_FILES");
+    }
 }
 
 /// Every record of a CSV file, the header first (read with the `csv` crate).

@@ -575,3 +575,95 @@ fn requested_points_are_labelled_and_quiet_is_silent() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A job `nnm run` must refuse whole, before anything is computed or written: exit 1, the
+/// one-line `expected` message, and no output folder, although its first branch is good.
+fn refused_before_anything_runs(dir: &Path, text: &str, expected: &str) {
+    let path = write(dir, "job.toml", text);
+    let out = dir.join("out");
+    let _ = std::fs::remove_dir_all(&out);
+    let output = nnm(&["run", &path, "--out", out.to_str().unwrap()]);
+    assert_one_error_line(&output, 1, expected);
+    assert!(!out.exists(), "{text}: nothing may be written");
+}
+
+/// Branch settings wrong for the model (issue 29, "checked too late") fail the job before any
+/// branch starts, not once the branches before them are written: a travelling wave of a mode
+/// that is not one of a pair, a name too long for its files, a dof listed twice in
+/// `output_dofs`, a step control aiming at no iterations.
+#[test]
+fn branch_settings_wrong_for_the_model_are_refused_before_any_branch_starts() {
+    let dir = scratch("too-late");
+    let good = job("good", 0, "energy_max = 1.0");
+    let long = "x".repeat(245);
+    for (bad, expected) in [
+        (
+            format!(
+                "{}pattern = \"travelling\"\n",
+                job("t", 1, "energy_max = 1.0")
+            ),
+            "branch `t`: invalid start: mode 1 has no travelling wave: the model declares no cyclic symmetry",
+        ),
+        (
+            job(&long, 1, "energy_max = 1.0"),
+            "branch 2: name `xxxxxxxxxxxxxxxx...` has 245 characters, more than the 244",
+        ),
+        (
+            job("d", 1, "energy_max = 1.0\noutput_dofs = [1, 1]"),
+            "branch 2: invalid setting: output_dofs: dof 1 is listed twice",
+        ),
+        (
+            job("i", 1, "energy_max = 1.0\ntarget_iterations = 0"),
+            "branch 2: invalid setting: target_iterations must be at least 1",
+        ),
+    ] {
+        refused_before_anything_runs(&dir, &format!("{MODEL}{good}{bad}"), expected);
+    }
+    // On a cyclic model, a travelling wave of a single (n,0) mode.
+    refused_before_anything_runs(
+        &dir,
+        "[model]\nfamily = \"bladed-disk\"\n[settings]\nenergy_max = 1.0\n[[branch]]\nname = \"good\"\nmode = \"1,5\"\n[[branch]]\nname = \"t\"\nmode = \"1,0\"\npattern = \"travelling\"\n",
+        "branch `t`: invalid start: mode (1,0) has no travelling wave: it is not a member of a degenerate pair",
+    );
+}
+
+/// A tensor file without a term is refused naming the file, not read as "no nonlinearity".
+#[test]
+fn an_empty_tensor_file_is_refused_naming_it() {
+    let dir = scratch("empty-tensor");
+    write(&dir, "cubic.txt", "% terms i j k l c\n\n");
+    let text = format!(
+        "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n[[model.nonlinear]]\ntype = \"tensor\"\ncubic = {{ file = \"cubic.txt\" }}\n{}",
+        job("good", 0, "energy_max = 1.0")
+    );
+    let expected = format!(
+        "{}: no terms: expected one `i j k l c` per line",
+        dir.join("cubic.txt").display()
+    );
+    refused_before_anything_runs(&dir, &text, &expected);
+}
+
+/// Branches whose files would be one file (issue 29, "files that collide": `b.events` writes
+/// `b.events.csv`, as `b` does) are refused naming both, before anything is written; so are
+/// names equal but for case (one file on macOS and Windows) and one that is the run's file.
+#[test]
+fn branches_whose_files_collide_are_refused_naming_both() {
+    let dir = scratch("collide");
+    let good = job("b", 0, "energy_max = 1.0");
+    for (bad, expected) in [
+        (
+            job("b.events", 1, "energy_max = 1.0"),
+            "job.toml: branches `b` and `b.events` would both write b.events.csv",
+        ),
+        (
+            job("B", 1, "energy_max = 1.0"),
+            "job.toml: branches `b` and `B` would both write b.csv (b.csv and B.csv are one file where names ignore case, as on macOS and Windows)",
+        ),
+        (
+            job("MODES", 1, "energy_max = 1.0"),
+            "job.toml: branch `MODES` would write MODES.csv over the run's own modes.csv",
+        ),
+    ] {
+        refused_before_anything_runs(&dir, &format!("{MODEL}{good}{bad}"), expected);
+    }
+}

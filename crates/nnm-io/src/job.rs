@@ -55,7 +55,7 @@ pub use branch::{
 };
 pub use elements::{Element, spring};
 pub use families::{Family, family_defaults, family_names, family_parameter_names};
-pub use load::{load_job, load_job_with, parse_job};
+pub use load::{MAX_BRANCH_NAME, load_job, load_job_with, parse_job};
 pub use model::{general_model, model_from_table};
 pub use schema::EventStart;
 

@@ -60,6 +60,12 @@ pub fn parse_terms<const N: usize>(
         trailing.copy_from_slice(&index[1..=N]);
         terms.push((index[0], trailing, c));
     }
+    // An empty file is a mistake (a wrong or truncated file), not a request for no force.
+    if terms.is_empty() {
+        return Err(format!(
+            "no terms: expected one `{layout}` per line (1-based indices, lines starting with % are comments)"
+        ));
+    }
     Ok(terms)
 }
 
@@ -96,6 +102,13 @@ mod tests {
             let e = parse_terms::<2>(text, 3).unwrap_err();
             assert!(e.starts_with(expected), "{text:?}: {e}");
             assert!(!e.contains('\n'));
+        }
+        for text in ["", "\n\n", "% only a comment\n  \n"] {
+            let e = parse_terms::<3>(text, 3).unwrap_err();
+            assert_eq!(
+                e,
+                "no terms: expected one `i j k l c` per line (1-based indices, lines starting with % are comments)"
+            );
         }
         let e = read_terms::<3>(Path::new("/nonexistent/f3.txt"), 3).unwrap_err();
         assert_eq!(e, "cannot read: No such file or directory");

@@ -70,6 +70,13 @@ def test_bad_family_parameters_have_the_command_lines_message(write_job, cli) ->
         ("bladed-disk", "9,9", {"energy_max": 1.0}, 'mode = "9,9"\nenergy_max = 1.0'),
         ("bladed-disk", "0,0", {"energy_max": 1.0}, 'mode = "0,0"\nenergy_max = 1.0'),  # rigid
         ("bladed-disk", "1,0", {"energy_max": 1.0, "pattern": "sin"}, 'mode = "1,0"\npattern = "sin"\nenergy_max = 1.0'),
+        # A travelling wave of a single mode: refused before anything runs (issue 29).
+        (
+            "bladed-disk",
+            "1,0",
+            {"energy_max": 1.0, "pattern": "travelling"},
+            'mode = "1,0"\npattern = "travelling"\nenergy_max = 1.0',
+        ),
     ],
 )
 def test_unknown_modes_have_the_command_lines_message(model, mode, settings, toml, write_job, cli) -> None:
@@ -89,6 +96,8 @@ def test_unknown_modes_have_the_command_lines_message(model, mode, settings, tom
         ({"energy_max": float("nan")}, "energy_max = nan", ValueError),
         ({"tolerance": 1e-9}, "tolerance = 1e-9", ValueError),  # no stop limit
         ({"energy_max": 1.0, "phase": "sideways"}, 'energy_max = 1.0\nphase = "sideways"', ValueError),
+        ({"energy_max": 1.0, "target_iterations": 0}, "energy_max = 1.0\ntarget_iterations = 0", ValueError),
+        ({"energy_max": 1.0, "output_dofs": [0, 0]}, "energy_max = 1.0\noutput_dofs = [0, 0]", ValueError),
     ],
 )
 def test_bad_settings_have_the_command_lines_message(settings, toml, exception, write_job, cli) -> None:
@@ -133,6 +142,18 @@ def test_shapes_and_types_are_checked_before_the_library() -> None:
     branch = nnm.backbone(nnm.duffing(), 0, max_points=3)
     with pytest.raises(ValueError, match=r"^point 3 does not exist: the branch has 3 points \(0 to 2, or -3 to -1"):
         branch.motion(3)
+
+
+def test_an_empty_tensor_file_is_refused_naming_it(write_job, cli) -> None:
+    job = write_job(
+        f"[model]\nmass = {toml_rows(TWO)}\nstiffness = {toml_rows(CHAIN)}\n"
+        '[[model.nonlinear]]\ntype = "tensor"\nquadratic = { file = "f2.txt" }\n',
+        **{"f2.txt": "% no terms\n\n"},
+    )
+    with pytest.raises(ValueError) as raised:
+        nnm.Model.from_job(job)
+    assert str(raised.value) == cli_error(cli, "modes", job)
+    assert str(raised.value).startswith(f"{job.parent / 'f2.txt'}: no terms: ")
 
 
 def test_a_tensor_that_is_not_a_gradient_is_refused_naming_its_terms() -> None:

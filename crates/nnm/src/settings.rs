@@ -239,6 +239,16 @@ impl Settings {
         if self.limits.max_points == 0 || c.max_iterations == 0 {
             return fail("max_points and max_iterations must be at least 1".into());
         }
+        // The step control aims at this many corrector iterations a step: none is no aim.
+        if c.target_iterations == 0 {
+            return fail("target_iterations must be at least 1".into());
+        }
+        // A dof listed twice would give two `peak_x<d>` columns of one name.
+        let dofs = &self.output.output_dofs;
+        let repeated = (1..dofs.len()).find(|&k| dofs[..k].contains(&dofs[k]));
+        if let Some(d) = repeated.map(|k| dofs[k]) {
+            return fail(format!("output_dofs: dof {d} is listed twice"));
+        }
         if let Some(e) = self.start.energy_start
             && !(e.is_finite() && e > 0.0)
         {

@@ -109,9 +109,9 @@ pub fn cantilever_beam_example(out: &Path, options: &BeamOptions) -> Result<()> 
     }
     let modes = linear_modes(structure).context("modal analysis failed")?;
     let frequencies = linear_frequencies(&beam, &modes);
-    let requests = resolve(&job.branches, &modes)?;
+    let requests = resolve(structure, &job.branches, &modes)?;
     let started = Instant::now();
-    let outcomes = compute_all(structure, &modes, requests, out, None, options.quiet)?;
+    let outcomes = compute_all(structure, requests, out, None, options.quiet)?;
     let branch_seconds = started.elapsed().as_secs_f64();
     let failed = failures(&outcomes);
     if !options.quiet {

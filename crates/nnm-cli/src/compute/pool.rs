@@ -8,7 +8,6 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use nnm::model::Structure;
-use nnm::modes::LinearMode;
 use rayon::prelude::*;
 
 use super::branch::compute_branch;
@@ -20,7 +19,6 @@ use crate::interrupt;
 /// Branches started from an event of another run in a later round, once their parent is done.
 pub fn compute_all(
     structure: &Structure,
-    modes: &[LinearMode],
     requests: Vec<BranchRequest>,
     out: &Path,
     threads: Option<usize>,
@@ -70,8 +68,8 @@ pub fn compute_all(
                         (from, outcomes[p].as_ref().expect("ready"))
                     });
                     let mut info = request.info.clone();
-                    let result = make_start(structure, modes, request, parent, &mut info).and_then(
-                        |start| {
+                    let result =
+                        make_start(structure, request, parent, &mut info).and_then(|start| {
                             let branch = compute_branch(
                                 structure,
                                 &start,
@@ -83,8 +81,7 @@ pub fn compute_all(
                                 |_| ControlFlow::Continue(()),
                             )?;
                             Ok((branch, start))
-                        },
-                    );
+                        });
                     let done = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                     if total > 1 && !quiet {
                         let _guard = log.lock();

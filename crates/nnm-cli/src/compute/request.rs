@@ -11,17 +11,27 @@ use nnm_io::output::{BranchInfo, SwitchedFrom};
 
 use super::outcome::Outcome;
 
-/// A branch ready to compute: what the job asked, and the mode it starts from.
+/// A branch ready to compute: what the job asked, the mode it starts from, and its start when
+/// that is a linear mode.
 #[derive(Clone)]
 pub struct BranchRequest {
     pub job: BranchJob,
     pub index: usize,
     pub info: BranchInfo,
+    /// The start from the linear mode (`None` for a branch started from an event).
+    pub start: Option<Start>,
 }
 
-/// The starting mode of each branch, resolved before any computation so that a wrong label
-/// fails at once. A branch started from an event inherits its parent's mode.
-pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<BranchRequest>> {
+/// The starting mode of each branch and, for a branch started from a linear mode, its start,
+/// made before anything is computed or written: a wrong label, a pattern the mode does not
+/// have (a travelling wave of a single mode) or any other start the model refuses fails the
+/// command at once, not once other branches' files are written. A branch started from an
+/// event inherits its parent's mode (its start needs the parent's results).
+pub fn resolve(
+    structure: &Structure,
+    branches: &[BranchJob],
+    modes: &[LinearMode],
+) -> Result<Vec<BranchRequest>> {
     let mut requests: Vec<BranchRequest> = Vec::with_capacity(branches.len());
     for b in branches {
         if let Some(from) = &b.from_event {
@@ -42,13 +52,17 @@ pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<Branc
                     name: b.name.clone(),
                     ..parent.info.clone()
                 },
+                start: None,
             });
             continue;
         }
         let index = resolve_mode(modes, &b.mode, b.pattern)
             .map_err(|m| anyhow!("branch `{}`: {m}", b.name))?;
+        let start = Start::for_branch(structure, modes, index, b.travel, &b.settings)
+            .map_err(|e| anyhow!("branch `{}`: {e}", b.name))?;
         let mode = &modes[index];
         requests.push(BranchRequest {
+            start: Some(start),
             job: b.clone(),
             index,
             info: BranchInfo {
@@ -75,14 +89,16 @@ pub fn resolve(branches: &[BranchJob], modes: &[LinearMode]) -> Result<Vec<Branc
 /// records, in `info`, where the branch came from).
 pub fn make_start(
     structure: &Structure,
-    modes: &[LinearMode],
     request: &BranchRequest,
     parent: Option<(&EventStart, &Outcome)>,
     info: &mut BranchInfo,
 ) -> Result<Start> {
     let job = &request.job;
     let start = match parent {
-        None => Start::for_branch(structure, modes, request.index, job.travel, &job.settings)?,
+        None => match &request.start {
+            Some(start) => start.clone(),
+            None => bail!("branch `{}`: no start was made for its mode", job.name),
+        },
         Some((from, parent)) => {
             let (Ok(branch), Some(parent_start)) = (&parent.result, &parent.start) else {
                 bail!("its parent branch `{}` failed", from.branch);

@@ -111,8 +111,7 @@ pub(super) fn compute(
     let started = Instant::now();
     let outcomes = compute_all(
         structure,
-        modes,
-        resolve(&jobs, modes)?,
+        resolve(structure, &jobs, modes)?,
         &backbone_dir,
         options.threads,
         true,
@@ -219,11 +218,11 @@ pub(super) fn single_branch(
     out: &Path,
     extra: impl FnMut(&BranchPoint) -> ControlFlow<&'static str>,
 ) -> Result<Branch> {
-    let request = resolve(std::slice::from_ref(job), modes)?
+    let request = resolve(structure, std::slice::from_ref(job), modes)?
         .pop()
         .expect("one request per job");
     let mut info = request.info.clone();
-    let start = make_start(structure, modes, &request, None, &mut info)?;
+    let start = make_start(structure, &request, None, &mut info)?;
     compute_branch(
         structure,
         &start,

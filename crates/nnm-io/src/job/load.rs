@@ -12,6 +12,7 @@ use super::model::{SpecError, build_model, typed_family};
 use super::schema::{EventStart, JobFile, from_table};
 use super::{BranchJob, Job, JobError};
 use crate::error::io_reason;
+use crate::output::{BRANCH_FILE_SUFFIXES, RUN_FILES, branch_files};
 
 /// Reads and validates a job file. Matrix files are resolved relative to the job's folder.
 pub fn load_job(path: &Path) -> Result<Job, JobError> {
@@ -154,6 +155,10 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
         if branches.iter().any(|b: &BranchJob| b.name == name) {
             return Err(invalid(format!("duplicate branch name `{name}`")));
         }
+        check_name_length(&name).map_err(|m| invalid(context(&m)))?;
+        if let Some(m) = file_collision(&name, &branches) {
+            return Err(invalid(m));
+        }
         let from_event: Option<EventStart> = match table.remove("start") {
             None => None,
             Some(value) => Some(value.try_into().map_err(|e: toml::de::Error| {
@@ -225,8 +230,71 @@ fn check_branch_name(name: &str) -> Result<(), String> {
             "name `{name}` starts with '.', which would hide the branch's files: start it with a letter, a digit, '-' or '_'"
         ))
     } else {
-        Ok(())
+        check_name_length(name)
     }
+}
+
+/// The longest name whose files fit the 255 bytes a file name may have (ext4, APFS, NTFS):
+/// a longer one would fail when its branch starts, after other branches' files are written.
+pub const MAX_BRANCH_NAME: usize = 255 - longest_suffix();
+
+const fn longest_suffix() -> usize {
+    let mut longest = 0;
+    let mut k = 0;
+    while k < BRANCH_FILE_SUFFIXES.len() {
+        if BRANCH_FILE_SUFFIXES[k].len() > longest {
+            longest = BRANCH_FILE_SUFFIXES[k].len();
+        }
+        k += 1;
+    }
+    longest
+}
+
+/// Refuses branch `name` (a valid name) when its files would not fit a file name.
+fn check_name_length(name: &str) -> Result<(), String> {
+    if name.len() > MAX_BRANCH_NAME {
+        let start: String = name.chars().take(16).collect();
+        return Err(format!(
+            "name `{start}...` has {} characters, more than the {MAX_BRANCH_NAME} that leave room for its files' suffixes (`.events.csv`) in a file name",
+            name.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Why branch `name` cannot be written beside the `earlier` ones: one of its files would be
+/// a file of an earlier branch (`b.events` writes `b.events.csv`, as `b` does) or of the run
+/// (`modes.csv`, ...). Names are compared ignoring case: on the file systems of macOS and
+/// Windows `B.csv` is `b.csv`, and a job must not overwrite its own results on the machine
+/// it is copied to.
+fn file_collision(name: &str, earlier: &[BranchJob]) -> Option<String> {
+    let case_note = |a: &str, b: &str| {
+        if a == b {
+            String::new()
+        } else {
+            format!(" ({a} and {b} are one file where names ignore case, as on macOS and Windows)")
+        }
+    };
+    for file in branch_files(name) {
+        let same = |other: &str| other.eq_ignore_ascii_case(&file);
+        if let Some(run_file) = RUN_FILES.iter().find(|f| same(f)) {
+            return Some(format!(
+                "branch `{name}` would write {file} over the run's own {run_file}{}",
+                case_note(run_file, &file)
+            ));
+        }
+        let theirs = earlier
+            .iter()
+            .find_map(|b| Some((b, branch_files(&b.name).find(|f| same(f))?)));
+        if let Some((b, theirs)) = theirs {
+            return Some(format!(
+                "branches `{}` and `{name}` would both write {theirs}{}",
+                b.name,
+                case_note(&theirs, &file)
+            ));
+        }
+    }
+    None
 }
 
 fn syntax_error(e: &toml::de::Error, text: &str, path: &Path) -> JobError {

@@ -535,6 +535,7 @@ fn sparse_model_errors_name_the_file() {
     std::fs::write(dir.join("bad-gradient.txt"), "1 2 2 1.0\n").unwrap();
     std::fs::write(dir.join("bad-line.txt"), "% ok\n1 1 1 1 1.0\n2 1 1 9 1.0\n").unwrap();
     std::fs::write(dir.join("ok2.txt"), "1 1 1 1.0\n").unwrap();
+    std::fs::write(dir.join("empty.txt"), "% no terms yet\n\n").unwrap();
     let good = "mass = { file = \"M.mtx\" }\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]\n";
     let cases = [
         (
@@ -562,6 +563,11 @@ fn sparse_model_errors_name_the_file() {
         (
             format!("{good}[[model.nonlinear]]\ntype = \"tensor\"\ncubic = {{ file = \"ok2.txt\" }}\n"),
             format!("{}: line 1: expected `i j k l c` (5 numbers), found 4", path("ok2.txt")),
+        ),
+        (
+            // An empty file is not "no nonlinearity": the file is named.
+            format!("{good}[[model.nonlinear]]\ntype = \"tensor\"\nquadratic = {{ file = \"ok2.txt\" }}\ncubic = {{ file = \"empty.txt\" }}\n"),
+            format!("{}: no terms: expected one `i j k l c` per line", path("empty.txt")),
         ),
         (
             format!("{good}[[model.nonlinear]]\ntype = \"tensor\"\n"),
@@ -939,4 +945,81 @@ fn branch_names_are_refused_with_the_characters_at_fault() {
     for name in ["mode-1.5_b", "_x", "-", "a.b.c", "A9"] {
         parse(&job(name)).unwrap_or_else(|e| panic!("{name:?}: {e}"));
     }
+}
+
+/// Settings a branch cannot start with are refused with the job: a step control aiming at no
+/// iterations, a dof listed twice in `output_dofs` (two columns of one name).
+#[test]
+fn settings_a_branch_cannot_start_with_are_refused() {
+    let model = "[model]\nfamily = \"duffing\"\n";
+    for (keys, expected) in [
+        (
+            "target_iterations = 0",
+            "job.toml: branch 1: invalid setting: target_iterations must be at least 1",
+        ),
+        (
+            "output_dofs = [1, 0, 1]",
+            "job.toml: branch 1: invalid setting: output_dofs: dof 1 is listed twice",
+        ),
+    ] {
+        let text = format!("{model}[[branch]]\nname = \"b\"\nmode = 0\nenergy_max = 1.0\n{keys}\n");
+        assert_eq!(error(&text), expected);
+        let text = format!("{model}[settings]\n{keys}\n");
+        assert!(error(&text).starts_with("job.toml: [settings]: invalid setting: "));
+    }
+}
+
+/// Branches whose files would be one file (`b.events` writes `b.events.csv`, as `b` does;
+/// `B.csv` is `b.csv` where names ignore case), one of the run's files, or a name too long for
+/// a file name are refused with the job, naming both branches.
+#[test]
+fn branches_whose_files_collide_are_refused() {
+    let model = "[model]\nfamily = \"duffing\"\n[settings]\nenergy_max = 1.0\n";
+    let job = |names: &[&str]| {
+        let branches: String = names
+            .iter()
+            .map(|n| format!("[[branch]]\nname = \"{n}\"\nmode = 0\n"))
+            .collect();
+        format!("{model}{branches}")
+    };
+    for (names, expected) in [
+        (
+            &["b", "b.events"][..],
+            "job.toml: branches `b` and `b.events` would both write b.events.csv",
+        ),
+        (
+            &["b.events", "b"][..],
+            "job.toml: branches `b.events` and `b` would both write b.events.csv",
+        ),
+        (
+            &["run", "x", "Run"][..],
+            "job.toml: branches `run` and `Run` would both write run.csv (run.csv and Run.csv are one file where names ignore case, as on macOS and Windows)",
+        ),
+        (
+            &["Modes"][..],
+            "job.toml: branch `Modes` would write Modes.csv over the run's own modes.csv (modes.csv and Modes.csv are one file where names ignore case, as on macOS and Windows)",
+        ),
+    ] {
+        assert_eq!(error(&job(names)), expected, "{names:?}");
+    }
+    // Names that only look alike are fine.
+    let parsed = parse(&job(&[
+        "b",
+        "b.event",
+        "b.json.x",
+        "bjson",
+        "fep",
+        "amplitude",
+    ]))
+    .unwrap();
+    assert_eq!(parsed.branches.len(), 6);
+
+    let longest = "x".repeat(MAX_BRANCH_NAME);
+    assert_eq!(MAX_BRANCH_NAME + ".events.csv".len(), 255);
+    assert!(parse(&job(&[&longest])).is_ok());
+    let too_long = "x".repeat(MAX_BRANCH_NAME + 1);
+    assert_eq!(
+        error(&job(&[&too_long])),
+        "job.toml: branch 1: name `xxxxxxxxxxxxxxxx...` has 245 characters, more than the 244 that leave room for its files' suffixes (`.events.csv`) in a file name"
+    );
 }

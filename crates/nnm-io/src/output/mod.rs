@@ -326,6 +326,29 @@ fn events_tail(events: &str) -> String {
     format!("],\"events\":[{events}]}}")
 }
 
+/// What a branch writes besides its name: `<name>.csv`, `<name>.json` (rewritten through
+/// `<name>.json.tmp`) and `<name>.events.csv`. A job's branches are checked against these
+/// before anything runs, so no two branches' files can be one file.
+pub const BRANCH_FILE_SUFFIXES: [&str; 4] = [".csv", ".json", ".json.tmp", ".events.csv"];
+
+/// The files `nnm run` writes into its output folder beside the branches' (and its lock,
+/// `.nnm.lock`): no branch may write one of them.
+pub const RUN_FILES: [&str; 6] = [
+    "modes.csv",
+    "fep.png",
+    "fep.svg",
+    "amplitude.png",
+    "amplitude.svg",
+    ".nnm.lock",
+];
+
+/// The files of branch `name` ([`BRANCH_FILE_SUFFIXES`]).
+pub fn branch_files(name: &str) -> impl Iterator<Item = String> + '_ {
+    BRANCH_FILE_SUFFIXES
+        .iter()
+        .map(move |s| format!("{name}{s}"))
+}
+
 /// Streams one branch to `<dir>/<name>.csv` and `<dir>/<name>.json`.
 ///
 /// While the branch runs the JSON ends `"points":[p0,...],"events":[e0,...]}`: an event is
