@@ -218,7 +218,7 @@ def short_branch() -> nnm.Branch:
         ((0,), {"samples": True}, TypeError, r"^samples must be an integer, got bool$"),
         ((0,), {"tolerance": float("nan")}, ValueError, r"^tolerance must be positive and finite, got NaN$"),
         ((0,), {"tolerance": 0.0}, ValueError, r"^tolerance must be positive and finite, got 0$"),
-        ((0,), {"tolerance": -1e-8}, ValueError, r"^tolerance must be positive and finite, got -0.00000001$"),
+        ((0,), {"tolerance": -1e-8}, ValueError, r"^tolerance must be positive and finite, got -1e-8$"),
         ((0,), {"tolerance": 0.5}, ValueError, r"^tolerance 0.5 is too loose \(use < 1e-2\)$"),
         ((0,), {"tolerance": 1e-20}, ValueError, r"^tolerance 1e-20 is below 1e-14"),
         ((0,), {"tolerance": "1e-8"}, TypeError, r"^tolerance must be a real number, got str$"),
@@ -292,7 +292,7 @@ def test_model_integers_are_checked() -> None:
     [
         (float("nan"), "tolerance must be positive and finite, got NaN"),
         (0.0, "tolerance must be positive and finite, got 0"),
-        (-1e-8, "tolerance must be positive and finite, got -0.00000001"),
+        (-1e-8, "tolerance must be positive and finite, got -1e-8"),
     ],
 )
 def test_nan_zero_and_negative_tolerances_are_refused_as_by_the_command_line(tolerance, message, write_job, cli) -> None:
