@@ -192,6 +192,29 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
     /// in `cache.lu` with its step size) and refactors only when it converges slowly; with
     /// sensitivities, the exact Jacobian at the converged stages is factorised once, used for
     /// the variational step (eq. (32c)), and kept for the next step's Newton.
+    /// Factorises the stage Jacobian at the stage states of accelerations `w` (step `h` from
+    /// `(x, v)`) into `cache.lu`, counting the tangents and the factorisation.
+    fn refactorise(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        w: &[f64],
+        h: f64,
+        cache: &mut StepCache,
+        stats: &mut IntegrationStats,
+    ) -> Result<(), IntegrationError> {
+        let (lu, _) = self.stage_jacobian(
+            &self.stage_states(x, v, w, h),
+            h,
+            &mut cache.linear,
+            cache.split,
+        )?;
+        stats.tangent_evaluations += self.method.c.len();
+        stats.factorisations += 1;
+        cache.lu = Some((lu, h));
+        Ok(())
+    }
+
     fn step(
         &self,
         z: &mut [f64],
@@ -217,15 +240,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             w.copy_within(0..n, i * n);
         }
         if cache.lu.as_ref().is_none_or(|(_, size)| *size != h) {
-            let (lu, _) = self.stage_jacobian(
-                &self.stage_states(x, v, &w, h),
-                h,
-                &mut cache.linear,
-                cache.split,
-            )?;
-            stats.tangent_evaluations += s;
-            stats.factorisations += 1;
-            cache.lu = Some((lu, h));
+            self.refactorise(x, v, &w, h, cache, stats)?;
         }
         let mut fresh = false;
         let mut previous = f64::INFINITY;
@@ -276,15 +291,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                 if size <= 2.0 * cache.floor * scale {
                     break;
                 }
-                let (lu, _) = self.stage_jacobian(
-                    &self.stage_states(x, v, &w, h),
-                    h,
-                    &mut cache.linear,
-                    cache.split,
-                )?;
-                stats.tangent_evaluations += s;
-                stats.factorisations += 1;
-                cache.lu = Some((lu, h));
+                self.refactorise(x, v, &w, h, cache, stats)?;
                 fresh = true;
                 previous = f64::INFINITY;
                 continue;
