@@ -45,6 +45,7 @@ pub mod bifurcation;
 pub mod branch;
 pub mod continuation;
 pub mod floquet;
+pub mod forced;
 pub mod integrate;
 pub mod krylov;
 pub(crate) mod linalg;

@@ -83,7 +83,42 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             ));
         }
         pin.iter_mut().for_each(|x| *x /= norm);
-        Ok(Self {
+        Ok(Self::from_pin(problem, u0, pin, settings, detector))
+    }
+
+    /// Continuation from the first guess `u0` whose first corrector holds the parameter-like
+    /// last component of `u` fixed, and whose branch leaves it towards increasing values: a
+    /// forced response starts at a given frequency or force amplitude (the response there is
+    /// unique near the linear one, so nothing can slide).
+    pub fn at_parameter(
+        problem: &'p mut P,
+        u0: Vec<f64>,
+        settings: &ContinuationSettings,
+        detector: D,
+    ) -> Result<Self, ContinuationError> {
+        let m = u0.len();
+        if m != problem.dimension() {
+            return Err(ContinuationError::FirstPoint(
+                format!(
+                    "the first guess has {m} unknowns, the problem {}",
+                    problem.dimension()
+                )
+                .into(),
+            ));
+        }
+        let mut pin = vec![0.0; m];
+        pin[m - 1] = 1.0;
+        Ok(Self::from_pin(problem, u0, pin, settings, detector))
+    }
+
+    fn from_pin(
+        problem: &'p mut P,
+        u0: Vec<f64>,
+        pin: Vec<f64>,
+        settings: &ContinuationSettings,
+        detector: D,
+    ) -> Self {
+        Self {
             problem,
             detector,
             settings: settings.clone(),
@@ -93,7 +128,7 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             queue: VecDeque::new(),
             state: State::NotStarted { u0, pin },
             stats: ContinuationStats::default(),
-        })
+        }
     }
 
     /// Work counters so far.

@@ -10,6 +10,7 @@
 //! collocation for stiff finite-element models; [`IntegrationMethod`] chooses between them.
 
 mod collocation;
+pub mod forced;
 mod kernels;
 mod runge_kutta;
 mod tableau;

@@ -350,7 +350,7 @@ pub(super) fn check_size(name: &'static str, m: &Matrix, n: usize) -> Result<(),
     Ok(())
 }
 
-fn check_finite_symmetric(name: &'static str, m: &Matrix) -> Result<(), ModelError> {
+pub(super) fn check_finite_symmetric(name: &'static str, m: &Matrix) -> Result<(), ModelError> {
     if let Some((row, col, _)) = m.entries().find(|e| !e.2.is_finite()) {
         return Err(ModelError::NotFinite { name, row, col });
     }

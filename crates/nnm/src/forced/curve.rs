@@ -1,0 +1,419 @@
+//! One forced response curve end to end: the integrator chosen, the linear first point, the
+//! continuation over the sweep with events, the limits that end it, and an observer that sees
+//! every point and event as it comes (docs/method.md §19).
+
+use std::ops::ControlFlow;
+
+use crate::continuation::{Continuation, ContinuationError, ContinuationSettings, Item};
+use crate::integrate::forced::{ForcedCollocation, ForcedIntegrator, ForcedRungeKutta};
+use crate::integrate::{
+    DOP853, DOPRI5, GAUSS4, GAUSS6, IntegrationMethod, IntegrationSettings, RADAU5, Tolerances,
+};
+use crate::model::{ForcedSystem, MechanicalSystem};
+
+use super::events::{ResponseEvent, ResponseEvents};
+use super::linear::LinearOperators;
+use super::problem::{ForcedShooting, ForcedStats, ResponsePoint, Scales, Sweep};
+
+/// Settings of a forced response curve.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
+pub struct ResponseSettings {
+    /// The continuation; steps are absolute in the scaled unknowns (forced/problem.rs), so
+    /// the defaults differ from a branch's: first step 0.02, largest 0.05, so that a curve
+    /// of a few scaled units gets some fifty points.
+    #[serde(flatten)]
+    pub continuation: ContinuationSettings,
+    /// The integration method and its accuracy.
+    #[serde(flatten)]
+    pub integration: IntegrationSettings,
+    /// Detect and locate folds and bifurcations (default true).
+    pub events: bool,
+    /// Largest number of points (default 2000).
+    pub max_points: usize,
+    /// Samples of a period for the peaks and the first harmonic (default 128).
+    pub samples: usize,
+}
+
+impl Default for ResponseSettings {
+    fn default() -> Self {
+        Self {
+            continuation: ContinuationSettings {
+                initial_step: 0.02,
+                max_step: 0.05,
+                ..ContinuationSettings::default()
+            },
+            integration: IntegrationSettings::default(),
+            events: true,
+            max_points: 2000,
+            samples: 128,
+        }
+    }
+}
+
+/// Why a curve ended.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ResponseStop {
+    /// The parameter reached the end of the sweep.
+    End,
+    /// The curve turned back out of the start of the sweep.
+    Start,
+    /// The point budget ran out.
+    MaxPoints,
+    /// The observer stopped it (an interrupt).
+    Stopped,
+    /// The continuation failed (the message says why); the points so far are kept.
+    Failed(String),
+}
+
+/// What a curve's observer is shown.
+pub type ResponseItem = Item<ResponsePoint, ResponseEvent>;
+
+/// A computed curve.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ResponseCurve {
+    /// The points in order.
+    pub points: Vec<ResponsePoint>,
+    /// The located events in order.
+    pub events: Vec<ResponseEvent>,
+    /// Why it ended.
+    pub stop: ResponseStop,
+    /// The integration method used.
+    pub integrator: &'static str,
+    /// The dofs whose peaks the points hold.
+    pub output_dofs: Vec<usize>,
+    /// The dof of the first harmonic's amplitude and phase.
+    pub phase_dof: usize,
+    /// Work counters.
+    pub stats: ForcedStats,
+    /// The continuation's counters.
+    pub continuation: crate::continuation::ContinuationStats,
+}
+
+/// Why a curve could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ResponseError {
+    /// The sweep or a setting is out of range (the text says which).
+    #[error("{0}")]
+    Invalid(String),
+    /// The first point did not converge.
+    #[error(transparent)]
+    Continuation(#[from] ContinuationError),
+}
+
+/// The integrator for `method` (resolved from `auto` at `frequency`): explicit DOP853 for
+/// non-stiff models, implicit Radau IIA for stiff ones — not Gauss–Legendre, whose
+/// `|R(−∞)| = 1` would carry an overdamped stiff mode's multiplier at `−1` instead of `0`.
+fn integrator<'s, 'a, S: MechanicalSystem + ?Sized>(
+    system: &'s ForcedSystem<'a, S>,
+    method: IntegrationMethod,
+    frequency: f64,
+    tolerances: Tolerances,
+) -> (IntegrationMethod, Box<dyn ForcedIntegrator + 's>) {
+    let method = match method.resolve(system.system(), frequency) {
+        IntegrationMethod::Gauss6 if method.is_auto() => IntegrationMethod::Radau5,
+        other => other,
+    };
+    let integrator: Box<dyn ForcedIntegrator + 's> = match method {
+        IntegrationMethod::Dop853 | IntegrationMethod::Auto => {
+            Box::new(ForcedRungeKutta::new(system, &DOP853, tolerances))
+        }
+        IntegrationMethod::Dopri5 => Box::new(ForcedRungeKutta::new(system, &DOPRI5, tolerances)),
+        IntegrationMethod::Gauss4 => Box::new(ForcedCollocation::new(system, &GAUSS4, tolerances)),
+        IntegrationMethod::Gauss6 => Box::new(ForcedCollocation::new(system, &GAUSS6, tolerances)),
+        IntegrationMethod::Radau5 => Box::new(ForcedCollocation::new(system, &RADAU5, tolerances)),
+    };
+    (method, integrator)
+}
+
+/// Checks a sweep before anything is computed.
+// Negated comparisons deliberate: NaN must fail.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+fn check_sweep(sweep: &Sweep) -> Result<(), ResponseError> {
+    let invalid = |s: String| Err(ResponseError::Invalid(s));
+    let number = crate::number::Number;
+    match *sweep {
+        Sweep::Frequency {
+            from,
+            to,
+            amplitude,
+        } => {
+            if !(from > 0.0 && from.is_finite()) {
+                return invalid(format!(
+                    "frequency_start must be positive, got {}",
+                    number(from)
+                ));
+            }
+            if !(to > from && to.is_finite()) {
+                return invalid(format!(
+                    "frequency_end must exceed frequency_start ({}), got {}",
+                    number(from),
+                    number(to)
+                ));
+            }
+            if !(amplitude != 0.0 && amplitude.is_finite()) {
+                return invalid(format!(
+                    "the force amplitude must be non-zero, got {}",
+                    number(amplitude)
+                ));
+            }
+        }
+        Sweep::Amplitude {
+            from,
+            to,
+            frequency,
+        } => {
+            if !(frequency > 0.0 && frequency.is_finite()) {
+                return invalid(format!(
+                    "frequency must be positive, got {}",
+                    number(frequency)
+                ));
+            }
+            if !(from > 0.0 && from.is_finite()) {
+                return invalid(format!(
+                    "the starting amplitude must be positive, got {}",
+                    number(from)
+                ));
+            }
+            if !(to > from && to.is_finite()) {
+                return invalid(format!(
+                    "amplitude_max must exceed the starting amplitude ({}), got {}",
+                    number(from),
+                    number(to)
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The scales of the unknowns: the largest linear response over the sweep (on a grid of
+/// frequencies, or at the largest amplitude), its velocity at the sweep's frequency, and the
+/// sweep's width.
+fn scales(linear: &LinearOperators, sweep: &Sweep) -> Scales {
+    let largest = |z: &[f64]| {
+        let n = z.len() / 2;
+        z[..n].iter().fold(0.0f64, |m, x| m.max(x.abs()))
+    };
+    let (displacement, frequency) = match *sweep {
+        Sweep::Frequency {
+            from,
+            to,
+            amplitude,
+        } => {
+            const GRID: usize = 200;
+            let peak = (0..=GRID)
+                .map(|k| from + (to - from) * k as f64 / GRID as f64)
+                .map(|omega| largest(&linear.response(omega, amplitude)))
+                .fold(0.0f64, f64::max);
+            (peak, 0.5 * (from + to))
+        }
+        Sweep::Amplitude { to, frequency, .. } => {
+            (largest(&linear.response(frequency, to)), frequency)
+        }
+    };
+    let displacement = if displacement > 0.0 && displacement.is_finite() {
+        displacement
+    } else {
+        1.0
+    };
+    let (from, to) = sweep.range();
+    Scales {
+        displacement,
+        velocity: displacement * frequency,
+        parameter: to - from,
+    }
+}
+
+/// Computes the forced response of `system` over `sweep`: the periodic responses from the
+/// linear one at the start of the sweep to its end, through folds, with their stability and
+/// events. `output_dofs`: the dofs whose peaks each point records (empty: the forced dofs);
+/// `observer` sees each point and event as it comes and may stop the curve.
+pub fn forced_response<S: MechanicalSystem + ?Sized>(
+    system: &ForcedSystem<'_, S>,
+    sweep: Sweep,
+    output_dofs: &[usize],
+    settings: &ResponseSettings,
+    mut observer: impl FnMut(&ResponseItem) -> ControlFlow<()>,
+) -> Result<ResponseCurve, ResponseError> {
+    check_sweep(&sweep)?;
+    let n = system.dofs();
+    if let Some(&d) = output_dofs.iter().find(|&&d| d >= n) {
+        return Err(ResponseError::Invalid(format!(
+            "output dof {d} is out of range (the model has {n} dofs)"
+        )));
+    }
+    let force = system.force();
+    let forced: Vec<usize> = (0..n)
+        .filter(|&i| force.cosine[i] != 0.0 || force.sine[i] != 0.0)
+        .collect();
+    let output_dofs = if output_dofs.is_empty() {
+        forced.clone()
+    } else {
+        output_dofs.to_vec()
+    };
+    let phase_dof = forced[0];
+    let linear = LinearOperators::new(system);
+    let scales = scales(&linear, &sweep);
+    let (from, _) = sweep.range();
+    let drive = sweep.drive(from);
+    let method = settings.integration.integrator;
+    let relative = method
+        .resolve(system.system(), drive.frequency)
+        .relative_tolerance(
+            settings.continuation.tolerance,
+            settings.integration.integration_factor,
+        );
+    let tolerances = Tolerances {
+        relative,
+        absolute: relative * scales.displacement,
+        velocity_scale: drive.frequency,
+    };
+    let (method, integrator) = integrator(system, method, drive.frequency, tolerances);
+    let mut problem = ForcedShooting::new(
+        system,
+        integrator,
+        sweep,
+        scales,
+        output_dofs.clone(),
+        phase_dof,
+        settings.samples.max(8),
+    );
+    let z0 = linear.response(drive.frequency, drive.amplitude);
+    problem
+        .adapt(&z0, from)
+        .map_err(|e| ContinuationError::FirstPoint(e.into()))?;
+    let u0 = problem.unknowns(&z0, from);
+    let detector = settings.events.then_some(ResponseEvents {
+        tolerance: settings.continuation.tolerance,
+    });
+    let mut continuation =
+        Continuation::at_parameter(&mut problem, u0, &settings.continuation, detector)?;
+    let (mut points, mut events) = (Vec::new(), Vec::new());
+    let (start, end) = sweep.range();
+    let width = end - start;
+    let stop = loop {
+        let item = match continuation.next() {
+            Some(Ok(item)) => item,
+            Some(Err(ContinuationError::FirstPoint(e))) => {
+                return Err(ContinuationError::FirstPoint(e).into());
+            }
+            Some(Err(e)) => break ResponseStop::Failed(e.to_string()),
+            None => break ResponseStop::Failed("the continuation ended".into()),
+        };
+        let flow = observer(&item);
+        let point = match item {
+            Item::Event(event) => {
+                events.push(event);
+                if flow.is_break() {
+                    break ResponseStop::Stopped;
+                }
+                continue;
+            }
+            Item::Point(point) => point,
+        };
+        let p = match sweep {
+            Sweep::Frequency { .. } => point.frequency,
+            Sweep::Amplitude { .. } => point.force_amplitude,
+        };
+        let tangent = *point.tangent.last().expect("a tangent");
+        let z0 = point.z0.clone();
+        points.push(point);
+        if flow.is_break() {
+            break ResponseStop::Stopped;
+        }
+        if p >= end - 1e-9 * width {
+            break ResponseStop::End;
+        }
+        if p < start - 1e-9 * width {
+            break ResponseStop::Start;
+        }
+        if points.len() >= settings.max_points {
+            break ResponseStop::MaxPoints;
+        }
+        // Land on the end of the sweep rather than past it (docs/method.md eq. (26c)).
+        let cap = (tangent > 0.0).then(|| (end - p) / width / tangent * 1.0000001);
+        continuation.cap_next_step(cap);
+        if let Err(e) = continuation.problem_mut().adapt(&z0, p) {
+            break ResponseStop::Failed(e.to_string());
+        }
+    };
+    let mut continuation_stats = continuation.stats();
+    drop(continuation);
+    if stop == ResponseStop::End {
+        land_on_end(
+            &mut problem,
+            &mut points,
+            end,
+            settings,
+            &mut continuation_stats,
+        );
+    }
+    Ok(ResponseCurve {
+        points,
+        events,
+        stop,
+        integrator: method.name(),
+        output_dofs,
+        phase_dof,
+        stats: problem.stats,
+        continuation: continuation_stats,
+    })
+}
+
+/// Replaces a last point past the end of the sweep by the point at the end itself: corrected
+/// at the fixed parameter from the chord between the last two points (the cap on the last
+/// step lands near the end, the corrector's move along the curve's curvature leaves it a
+/// little past).
+fn land_on_end<S: MechanicalSystem + ?Sized>(
+    problem: &mut ForcedShooting<'_, '_, S>,
+    points: &mut [ResponsePoint],
+    end: f64,
+    settings: &ResponseSettings,
+    stats: &mut crate::continuation::ContinuationStats,
+) {
+    let [.., before, last] = points else { return };
+    let m = last.unknowns.len();
+    let target = end / problem.scales().parameter;
+    let (a, b) = (before.unknowns[m - 1], last.unknowns[m - 1]);
+    if b <= target || a >= target {
+        return;
+    }
+    let w = (target - a) / (b - a);
+    let mut guess: Vec<f64> = before
+        .unknowns
+        .iter()
+        .zip(&last.unknowns)
+        .map(|(x, y)| x + w * (y - x))
+        .collect();
+    guess[m - 1] = target;
+    let mut pin = vec![0.0; m];
+    pin[m - 1] = 1.0;
+    let Ok(corrected) = crate::continuation::corrector::correct(
+        problem,
+        &guess,
+        &pin,
+        &guess,
+        settings.continuation.tolerance,
+        settings.continuation.max_iterations,
+        &mut stats.newton_iterations,
+    ) else {
+        return;
+    };
+    let solution = crate::continuation::Solution {
+        index: last.index,
+        tangent: crate::continuation::predictor::tangent(&corrected.evaluation, &last.tangent),
+        step: last.step,
+        u: corrected.u,
+        iterations: corrected.iterations,
+    };
+    use crate::continuation::ContinuationProblem;
+    if let Ok(point) = problem.point(
+        &solution,
+        &corrected.evaluation,
+        crate::continuation::Detail::Full,
+    ) {
+        *last = point;
+    }
+}

@@ -1,0 +1,418 @@
+//! Shooting for the periodic response to a harmonic force: `H(z0, p) = z(2π; z0, p) − z0 = 0`
+//! over the fixed forcing period, continued in `p` = the frequency `Ω` or the force amplitude
+//! `a` (docs/method.md eqs. (99)–(101)).
+//!
+//! The unknowns are scaled so that a whole curve spans a few units: displacements by the
+//! largest linear response over the sweep, velocities by that times the sweep's frequency,
+//! and the parameter by the sweep's width. The arclength steps are then absolute (the
+//! problem's [`ContinuationProblem::amplitude`] is 1): a resonance peak and the flanks of the
+//! curve are resolved alike on the plot a user looks at, whatever the units of the model.
+
+use crate::continuation::{ContinuationProblem, Detail, Linearization, Solution};
+use crate::integrate::IntegrationError;
+use crate::integrate::forced::{Drive, ForcedIntegrator, sample};
+use crate::linalg::{self, Complex, Mat};
+use crate::model::{ForcedSystem, MechanicalSystem};
+
+/// What a curve is continued in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sweep {
+    /// The forcing frequency `Ω` from `from` to `to` (rad/s) at force amplitude `amplitude`.
+    Frequency {
+        /// `Ω` where the curve starts.
+        from: f64,
+        /// `Ω` where it ends.
+        to: f64,
+        /// The factor `a` on the force shape.
+        amplitude: f64,
+    },
+    /// The force amplitude `a` from `from` to `to` at the fixed frequency `frequency`.
+    Amplitude {
+        /// `a` where the curve starts.
+        from: f64,
+        /// `a` where it ends.
+        to: f64,
+        /// `Ω` (rad/s).
+        frequency: f64,
+    },
+}
+
+impl Sweep {
+    /// The drive at parameter value `p`.
+    pub fn drive(&self, p: f64) -> Drive {
+        match *self {
+            Sweep::Frequency { amplitude, .. } => Drive {
+                frequency: p,
+                amplitude,
+            },
+            Sweep::Amplitude { frequency, .. } => Drive {
+                frequency,
+                amplitude: p,
+            },
+        }
+    }
+
+    /// Where the parameter starts and ends.
+    pub fn range(&self) -> (f64, f64) {
+        match *self {
+            Sweep::Frequency { from, to, .. } | Sweep::Amplitude { from, to, .. } => (from, to),
+        }
+    }
+}
+
+/// One evaluation of the forced shooting equations.
+#[derive(Debug, Clone)]
+pub struct ForcedEvaluation {
+    /// `z0`, unscaled.
+    pub z0: Vec<f64>,
+    /// The drive it was integrated at.
+    pub drive: Drive,
+    /// The scaled residual `D (z(2π) − z0)`.
+    pub rows: Vec<f64>,
+    /// `‖D H‖ / ‖D z0‖` (eq. (19)).
+    pub relative_residual: f64,
+    /// `∂(D H)/∂u`, `2n × (2n + 1)`.
+    pub jacobian: Mat<f64>,
+    /// The monodromy `Φ = ∂z(2π)/∂z0`, unscaled.
+    pub monodromy: Mat<f64>,
+    /// Integration steps of the period.
+    pub steps: usize,
+}
+
+impl Linearization for ForcedEvaluation {
+    fn residual(&self) -> &[f64] {
+        &self.rows
+    }
+
+    fn relative_residual(&self) -> f64 {
+        self.relative_residual
+    }
+
+    /// The square bordered system `[J; bᵀ]` by QR (the periodicity rows of a forced,
+    /// damped response are independent: no redundant row).
+    fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
+        let (rows, m) = (self.jacobian.nrows(), self.jacobian.ncols());
+        let a = Mat::from_fn(rows + 1, m, |i, j| {
+            if i < rows {
+                self.jacobian[(i, j)]
+            } else {
+                border[j]
+            }
+        });
+        let mut b = rhs.to_vec();
+        b.push(border_rhs);
+        linalg::least_squares(a.as_ref(), &b)
+    }
+}
+
+/// A converged point of a forced response curve.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ResponsePoint {
+    /// Index along the curve (an event's point carries the index of the point before it).
+    pub index: usize,
+    /// `Ω` (rad/s).
+    pub frequency: f64,
+    /// The force amplitude `a`.
+    pub force_amplitude: f64,
+    /// `z(0) = [x; v]` of the periodic response (the force's phase is 0 at `t = 0`).
+    pub z0: Vec<f64>,
+    /// `max_t |x_d(t)|` over the period, for each output dof (empty on light trial points).
+    pub peaks: Vec<f64>,
+    /// First-harmonic amplitude `√(a₁² + b₁²)` of the phase dof (`x ≈ A cos(Ωt − φ)`).
+    pub harmonic_amplitude: f64,
+    /// Phase lag `φ` of that first harmonic behind `cos Ωt`, radians in `(−π/2, 3π/2]`.
+    pub phase_lag: f64,
+    /// Floquet multipliers, by decreasing modulus.
+    pub multipliers: Vec<Complex>,
+    /// The largest `|μ|`.
+    pub max_floquet_modulus: f64,
+    /// Every `|μ| < 1`.
+    pub stable: bool,
+    /// The converged relative residual.
+    pub relative_residual: f64,
+    /// Newton iterations of the corrector.
+    pub iterations: usize,
+    /// The arclength step that led here.
+    pub step: f64,
+    /// Integration steps of one period.
+    pub integration_steps: usize,
+    /// The scaled unknowns `u`.
+    pub unknowns: Vec<f64>,
+    /// The unit tangent at `u`, oriented along the curve.
+    pub tangent: Vec<f64>,
+}
+
+impl ResponsePoint {
+    /// The number of multipliers outside the unit circle.
+    pub fn unstable_multipliers(&self) -> usize {
+        self.multipliers
+            .iter()
+            .filter(|m| m.0.hypot(m.1) > 1.0)
+            .count()
+    }
+}
+
+/// Why a forced evaluation failed or a converged solution makes no point.
+#[derive(Debug, thiserror::Error)]
+pub enum ForcedError {
+    /// The time integration failed.
+    #[error(transparent)]
+    Integration(#[from] IntegrationError),
+    /// The parameter left the values the model can be driven at (`Ω ≤ 0`).
+    #[error("the forcing frequency must stay positive, got {}", crate::number::Number(*.0))]
+    NonPositiveFrequency(f64),
+    /// The eigenvalues of the monodromy could not be computed.
+    #[error("Floquet analysis failed: {0}")]
+    Floquet(#[from] linalg::LinalgError),
+}
+
+/// Work counters of the forced shooting problem.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct ForcedStats {
+    /// Evaluations of the shooting equations.
+    pub evaluations: usize,
+    /// Integrations (with or without sensitivities).
+    pub integrations: usize,
+    /// Their work, summed.
+    pub integration: crate::integrate::IntegrationStats,
+}
+
+/// The scales of the unknowns (module notes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scales {
+    /// Displacements.
+    pub displacement: f64,
+    /// Velocities.
+    pub velocity: f64,
+    /// The parameter.
+    pub parameter: f64,
+}
+
+/// The forced shooting problem of one curve.
+pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
+    system: &'s ForcedSystem<'a, S>,
+    integrator: Box<dyn ForcedIntegrator + 's>,
+    sweep: Sweep,
+    scales: Scales,
+    output_dofs: Vec<usize>,
+    phase_dof: usize,
+    samples: usize,
+    /// Work counters so far.
+    pub stats: ForcedStats,
+}
+
+impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
+    /// The problem of `sweep` integrated by `integrator`; points record the peaks of
+    /// `output_dofs` and the first harmonic of `phase_dof`, from `samples` samples a period.
+    pub fn new(
+        system: &'s ForcedSystem<'a, S>,
+        integrator: Box<dyn ForcedIntegrator + 's>,
+        sweep: Sweep,
+        scales: Scales,
+        output_dofs: Vec<usize>,
+        phase_dof: usize,
+        samples: usize,
+    ) -> Self {
+        Self {
+            system,
+            integrator,
+            sweep,
+            scales,
+            output_dofs,
+            phase_dof,
+            samples,
+            stats: ForcedStats::default(),
+        }
+    }
+
+    /// The sweep.
+    pub fn sweep(&self) -> Sweep {
+        self.sweep
+    }
+
+    /// The scales of the unknowns.
+    pub fn scales(&self) -> Scales {
+        self.scales
+    }
+
+    /// The integrator's name.
+    pub fn integrator_name(&self) -> &'static str {
+        self.integrator.name()
+    }
+
+    fn scale_of(&self, i: usize) -> f64 {
+        if i < self.system.dofs() {
+            self.scales.displacement
+        } else {
+            self.scales.velocity
+        }
+    }
+
+    /// The scaled unknowns of the state `z0` at parameter `p`.
+    pub fn unknowns(&self, z0: &[f64], p: f64) -> Vec<f64> {
+        z0.iter()
+            .enumerate()
+            .map(|(i, z)| z / self.scale_of(i))
+            .chain(std::iter::once(p / self.scales.parameter))
+            .collect()
+    }
+
+    /// The state and parameter of scaled unknowns `u`.
+    pub fn state(&self, u: &[f64]) -> (Vec<f64>, f64) {
+        let n2 = u.len() - 1;
+        let z0 = (0..n2).map(|i| u[i] * self.scale_of(i)).collect();
+        (z0, u[n2] * self.scales.parameter)
+    }
+
+    /// Prepares the integrator for the motion from `z0` at parameter `p` (the step count of
+    /// an equal-step method, between points).
+    pub fn adapt(&mut self, z0: &[f64], p: f64) -> Result<(), ForcedError> {
+        self.integrator.adapt(z0, self.sweep.drive(p))?;
+        Ok(())
+    }
+
+    /// Peaks of the output dofs and the phase dof's first harmonic, from samples of the
+    /// motion refined at the peaks (analysis/peak.rs, docs/method.md eq. (87)).
+    fn motion_summary(
+        &mut self,
+        z0: &[f64],
+        drive: Drive,
+    ) -> Result<(Vec<f64>, f64, f64), ForcedError> {
+        let n = self.system.dofs();
+        let count = self.samples;
+        let states = sample(self.integrator.as_mut(), self.system, z0, drive, count)?;
+        self.stats.integrations += 1;
+        let dt = 2.0 * std::f64::consts::PI / (count as f64 * drive.frequency);
+        let mut peaks = Vec::with_capacity(self.output_dofs.len());
+        for &d in &self.output_dofs {
+            let x: Vec<f64> = states.iter().map(|(z, _)| z[d]).collect();
+            let v: Vec<f64> = states.iter().map(|(z, _)| z[n + d]).collect();
+            let mut peak = x.iter().fold(0.0f64, |m, a| m.max(a.abs()));
+            for (j, delay) in crate::analysis::peak_candidates(&x, &v, dt) {
+                let tau = j as f64 * 2.0 * std::f64::consts::PI / count as f64;
+                let z = if delay > 0.0 {
+                    self.integrator
+                        .advance(&states[j].0, tau, delay * drive.frequency, drive)?
+                } else {
+                    states[j].0.clone()
+                };
+                let mut rate = vec![0.0; 2 * n];
+                crate::integrate::forced::phase_field(
+                    self.system,
+                    &z,
+                    tau + delay * drive.frequency,
+                    drive,
+                    &mut rate,
+                );
+                let acceleration = rate[n + d] * drive.frequency;
+                peak = peak.max(crate::analysis::local_peak(z[d], z[n + d], acceleration));
+            }
+            peaks.push(peak);
+        }
+        let (mut a1, mut b1) = (0.0, 0.0);
+        for (k, (z, _)) in states.iter().enumerate() {
+            let tau = k as f64 * 2.0 * std::f64::consts::PI / count as f64;
+            a1 += z[self.phase_dof] * tau.cos();
+            b1 += z[self.phase_dof] * tau.sin();
+        }
+        let (a1, b1) = (2.0 * a1 / count as f64, 2.0 * b1 / count as f64);
+        let mut lag = b1.atan2(a1);
+        if lag <= -std::f64::consts::FRAC_PI_2 {
+            lag += 2.0 * std::f64::consts::PI;
+        }
+        Ok((peaks, a1.hypot(b1), lag))
+    }
+}
+
+impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_, S> {
+    type Evaluation = ForcedEvaluation;
+    type Point = ResponsePoint;
+    type Error = ForcedError;
+
+    fn dimension(&self) -> usize {
+        2 * self.system.dofs() + 1
+    }
+
+    // Negated comparison deliberate: a NaN frequency must fail.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn evaluate(&mut self, u: &[f64]) -> Result<ForcedEvaluation, ForcedError> {
+        let n2 = 2 * self.system.dofs();
+        let (z0, p) = self.state(u);
+        let drive = self.sweep.drive(p);
+        if !(drive.frequency > 0.0) {
+            return Err(ForcedError::NonPositiveFrequency(drive.frequency));
+        }
+        let flow = self.integrator.flow(&z0, drive, true)?;
+        self.stats.evaluations += 1;
+        self.stats.integrations += 1;
+        self.stats.integration += flow.stats;
+        let rows: Vec<f64> = (0..n2)
+            .map(|i| (flow.z[i] - z0[i]) / self.scale_of(i))
+            .collect();
+        let size = linalg::norm(&u[..n2]).max(f64::MIN_POSITIVE);
+        let relative_residual = linalg::norm(&rows) / size;
+        let phi = |i: usize, j: usize| flow.sensitivity[j * n2 + i];
+        let parameter_column = match self.sweep {
+            Sweep::Frequency { .. } => n2,
+            Sweep::Amplitude { .. } => n2 + 1,
+        };
+        let jacobian = Mat::from_fn(n2, n2 + 1, |i, j| {
+            if j == n2 {
+                phi(i, parameter_column) * self.scales.parameter / self.scale_of(i)
+            } else {
+                let identity = if i == j { 1.0 } else { 0.0 };
+                (phi(i, j) - identity) * self.scale_of(j) / self.scale_of(i)
+            }
+        });
+        Ok(ForcedEvaluation {
+            z0,
+            drive,
+            rows,
+            relative_residual,
+            jacobian,
+            monodromy: Mat::from_fn(n2, n2, phi),
+            steps: flow.steps.len(),
+        })
+    }
+
+    /// The multipliers always (event location needs them), the peaks and first harmonic
+    /// with [`Detail::Full`].
+    fn point(
+        &mut self,
+        solution: &Solution,
+        evaluation: &ForcedEvaluation,
+        detail: Detail,
+    ) -> Result<ResponsePoint, ForcedError> {
+        let mut multipliers = linalg::eigenvalues(evaluation.monodromy.as_ref())?;
+        let modulus = |m: &Complex| m.0.hypot(m.1);
+        multipliers.sort_by(|a, b| modulus(b).total_cmp(&modulus(a)));
+        let max_floquet_modulus = multipliers.first().map_or(0.0, modulus);
+        let (peaks, harmonic_amplitude, phase_lag) = match detail {
+            Detail::Full => self.motion_summary(&evaluation.z0, evaluation.drive)?,
+            Detail::Light => (Vec::new(), f64::NAN, f64::NAN),
+        };
+        Ok(ResponsePoint {
+            index: solution.index,
+            frequency: evaluation.drive.frequency,
+            force_amplitude: evaluation.drive.amplitude,
+            z0: evaluation.z0.clone(),
+            peaks,
+            harmonic_amplitude,
+            phase_lag,
+            stable: max_floquet_modulus < 1.0,
+            max_floquet_modulus,
+            multipliers,
+            relative_residual: evaluation.relative_residual,
+            iterations: solution.iterations,
+            step: solution.step,
+            integration_steps: evaluation.steps,
+            unknowns: solution.u.clone(),
+            tangent: solution.tangent.clone(),
+        })
+    }
+
+    /// Steps are absolute in the scaled unknowns (module notes).
+    fn amplitude(&self, _u: &[f64]) -> f64 {
+        1.0
+    }
+}

@@ -1,0 +1,1 @@
+//! The forced integrators against the exact linear flow and against each other.
