@@ -7,11 +7,13 @@
 //!   over a [`Sweep`] (in frequency, or in force amplitude at a fixed frequency);
 //! - [`ForcedShooting`] is the continuation problem (a [`crate::ContinuationProblem`]), for
 //!   callers that drive the continuation themselves;
-//! - [`damping`] builds `C` from the forms users give it (Rayleigh, modal ratios, a matrix).
+//! - [`damping`] builds `C` from the forms users give it (Rayleigh, modal ratios, a matrix),
+//!   [`Force`] the force shape (dofs, a vector, an engine order).
 
 mod curve;
 pub mod damping;
 mod events;
+mod force;
 mod linear;
 mod problem;
 
@@ -19,6 +21,7 @@ pub use curve::{
     ResponseCurve, ResponseError, ResponseItem, ResponseSettings, ResponseStop, forced_response,
 };
 pub use events::{ResponseEvent, ResponseEventKind, ResponseEvents};
+pub use force::{Force, ForceError};
 pub use problem::{
     ForcedError, ForcedEvaluation, ForcedShooting, ForcedStats, ResponsePoint, Scales, Sweep,
 };
