@@ -35,6 +35,20 @@ impl LinearOperators {
         }
     }
 
+    /// The null space of `K` (rigid-body displacement shapes), from its eigenvalues below
+    /// `1e-10` of the largest.
+    pub(crate) fn rigid_modes(&self) -> Vec<Vec<f64>> {
+        let Ok((values, vectors)) = crate::linalg::symmetric_eigen(self.stiffness.as_ref()) else {
+            return Vec::new();
+        };
+        let largest = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let n = self.stiffness.nrows();
+        (0..values.len())
+            .filter(|&k| values[k].abs() <= 1e-10 * largest)
+            .map(|k| (0..n).map(|i| vectors[(i, k)]).collect())
+            .collect()
+    }
+
     /// The periodic state `z(0) = [Re X; −Ω Im X]` of the linear response at `omega` to the
     /// force scaled by `amplitude` (`x(t) = Re(X e^{iΩt})`), by a real `2n` solve of
     /// `[[D, −ΩC], [ΩC, D]] [Re X; Im X] = a [F_c; −F_s]`, `D = K − Ω²M`.

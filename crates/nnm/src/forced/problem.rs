@@ -67,11 +67,11 @@ pub struct ForcedEvaluation {
     pub z0: Vec<f64>,
     /// The drive it was integrated at.
     pub drive: Drive,
-    /// The scaled residual `D (z(2π) − z0)`.
+    /// The scaled residual `D (z(2π) − z0)`, then the rigid-body offset rows.
     pub rows: Vec<f64>,
     /// `‖D H‖ / ‖D z0‖` (eq. (19)).
     pub relative_residual: f64,
-    /// `∂(D H)/∂u`, `2n × (2n + 1)`.
+    /// `∂(D H)/∂u` and the offset rows, `(2n + r) × (2n + 1)`.
     pub jacobian: Mat<f64>,
     /// The monodromy `Φ = ∂z(2π)/∂z0`, unscaled.
     pub monodromy: Mat<f64>,
@@ -88,8 +88,8 @@ impl Linearization for ForcedEvaluation {
         self.relative_residual
     }
 
-    /// The square bordered system `[J; bᵀ]` by QR (the periodicity rows of a forced,
-    /// damped response are independent: no redundant row).
+    /// The bordered system `[J; bᵀ]` in least squares by QR (square without rigid-body
+    /// modes; with them, consistent and overdetermined by one row a mode).
     fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
         let (rows, m) = (self.jacobian.nrows(), self.jacobian.ncols());
         let a = Mat::from_fn(rows + 1, m, |i, j| {
@@ -197,6 +197,9 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     output_dofs: Vec<usize>,
     phase_dof: usize,
     samples: usize,
+    /// Rows `wᵀ u_x = c` that hold the rigid-body offsets of the first point (docs/method.md
+    /// eq. (100a)): `w = Mφ` of each rigid-body mode `φ`, in scaled coordinates.
+    rigid_pins: Vec<(Vec<f64>, f64)>,
     /// Work counters so far.
     pub stats: ForcedStats,
 }
@@ -221,8 +224,30 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             output_dofs,
             phase_dof,
             samples,
+            rigid_pins: Vec::new(),
             stats: ForcedStats::default(),
         }
+    }
+
+    /// Holds the offset along each rigid-body mode (`rigid_modes`, displacement shapes with
+    /// `Kφ = 0`) at its value in `u0`. A free structure's periodic responses form a family
+    /// of rigid offsets: the periodicity equations leave that direction free (a zero row and
+    /// a zero column of `Φ − I` pair up), and the corrector needs one more equation for each.
+    pub fn hold_rigid_offsets(&mut self, rigid_modes: &[Vec<f64>], u0: &[f64]) {
+        let n = self.system.dofs();
+        let mass = self.system.system().mass();
+        self.rigid_pins = rigid_modes
+            .iter()
+            .map(|shape| {
+                let mut w = vec![0.0; n];
+                mass.apply(shape, 1, &mut w);
+                w.iter_mut().for_each(|v| *v *= self.scales.displacement);
+                let norm = linalg::norm(&w);
+                w.iter_mut().for_each(|v| *v /= norm);
+                let value = linalg::dot(&w, &u0[..n]);
+                (w, value)
+            })
+            .collect();
     }
 
     /// The sweep.
@@ -346,8 +371,14 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
         self.stats.evaluations += 1;
         self.stats.integrations += 1;
         self.stats.integration += flow.stats;
+        let n = n2 / 2;
         let rows: Vec<f64> = (0..n2)
             .map(|i| (flow.z[i] - z0[i]) / self.scale_of(i))
+            .chain(
+                self.rigid_pins
+                    .iter()
+                    .map(|(w, value)| linalg::dot(w, &u[..n]) - value),
+            )
             .collect();
         let size = linalg::norm(&u[..n2]).max(f64::MIN_POSITIVE);
         let relative_residual = linalg::norm(&rows) / size;
@@ -356,8 +387,11 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
             Sweep::Frequency { .. } => n2,
             Sweep::Amplitude { .. } => n2 + 1,
         };
-        let jacobian = Mat::from_fn(n2, n2 + 1, |i, j| {
-            if j == n2 {
+        let jacobian = Mat::from_fn(rows.len(), n2 + 1, |i, j| {
+            if i >= n2 {
+                let w = &self.rigid_pins[i - n2].0;
+                if j < n { w[j] } else { 0.0 }
+            } else if j == n2 {
                 phi(i, parameter_column) * self.scales.parameter / self.scale_of(i)
             } else {
                 let identity = if i == j { 1.0 } else { 0.0 };

@@ -1,0 +1,340 @@
+//! Forced response curves by shooting against references that share none of their code:
+//! the harmonic-balance reference (tests/common/forced_harmonic_balance.rs) for the folds,
+//! peaks and stability of nonlinear curves; an independent fixed-step integration of the
+//! variational equations for the multipliers; the cyclic symmetry of a tuned disk for an
+//! engine-order response.
+
+#[path = "common/forced_harmonic_balance.rs"]
+mod forced_harmonic_balance;
+
+use std::ops::ControlFlow;
+
+use forced_harmonic_balance::{ForcedProblem, Steps, folds, frequency_response, peak};
+use nnm::Mat;
+use nnm::forced::{
+    Force, ResponseCurve, ResponseEventKind, ResponseSettings, ResponseStop, Sweep, forced_response,
+};
+use nnm::integrate::IntegrationMethod;
+use nnm::model::{ForcedSystem, HarmonicForce, Matrix};
+use nnm::prelude::*;
+
+fn curve(
+    system: &ForcedSystem<'_, Structure>,
+    sweep: Sweep,
+    settings: &ResponseSettings,
+) -> ResponseCurve {
+    forced_response(system, sweep, &[], settings, |_| ControlFlow::Continue(())).unwrap()
+}
+
+/// `x'' + 0.02 x' + x + x³ = 0.1 cos Ωt` from Ω = 0.5 to 3.5, at default settings: the two
+/// folds where harmonic balance (15 harmonics, converged to 1e-12) puts them, to 1e-8 in Ω;
+/// the branch between them unstable and the others stable; peaks as harmonic balance's.
+fn duffing_against_harmonic_balance(method: IntegrationMethod) {
+    let duffing = nnm::model::duffing(1.0, 1.0).unwrap();
+    let damping = Matrix::from_rows(&[vec![0.02]]).unwrap();
+    let system = ForcedSystem::new(&duffing, &damping, HarmonicForce::cosine(vec![1.0])).unwrap();
+    let mut settings = ResponseSettings::default();
+    settings.integration.integrator = method;
+    let sweep = Sweep::Frequency {
+        from: 0.5,
+        to: 3.5,
+        amplitude: 0.1,
+    };
+    let shooting = curve(&system, sweep, &settings);
+    assert_eq!(shooting.stop, ResponseStop::End);
+
+    let problem = ForcedProblem::new(
+        &duffing,
+        Mat::from_fn(1, 1, |_, _| 0.02),
+        &[1.0],
+        &[0.0],
+        0.1,
+    );
+    let steps = Steps {
+        initial: 0.02,
+        min: 1e-8,
+        max: 0.1,
+        max_points: 5000,
+    };
+    let harmonics = 15;
+    let reference = frequency_response(&problem, harmonics, 0.5, 3.5, &steps).unwrap();
+    let reference_folds = folds(&problem, &reference).unwrap();
+    assert_eq!(reference_folds.len(), 2);
+
+    let located: Vec<_> = shooting
+        .events
+        .iter()
+        .filter(|e| e.kind == ResponseEventKind::Fold)
+        .collect();
+    assert_eq!(
+        located.len(),
+        2,
+        "{:?}",
+        shooting
+            .events
+            .iter()
+            .map(|e| (e.kind, e.point.frequency))
+            .collect::<Vec<_>>()
+    );
+    for (event, fold) in located.iter().zip(&reference_folds) {
+        let error = (event.point.frequency - fold.omega).abs();
+        assert!(
+            error < 1e-8,
+            "fold at {} vs {} ({error:e}, {})",
+            event.point.frequency,
+            fold.omega,
+            shooting.integrator
+        );
+        let relative = (event.point.peaks[0] - peak(fold, 0)).abs() / peak(fold, 0);
+        assert!(
+            relative < 1e-5,
+            "fold peak {} vs {}",
+            event.point.peaks[0],
+            peak(fold, 0)
+        );
+        // At a fold one multiplier is at +1.
+        let m = event.critical_multiplier;
+        assert!(
+            (m.0 - 1.0).abs() < 1e-4 && m.1 == 0.0,
+            "critical multiplier {m:?}"
+        );
+    }
+    let (upper, lower) = (reference_folds[0].omega, reference_folds[1].omega);
+    // Points are on the middle (unstable) branch exactly between the two folds in arclength.
+    let mut passed = 0;
+    for point in &shooting.points {
+        passed = shooting
+            .events
+            .iter()
+            .filter(|e| e.kind == ResponseEventKind::Fold && e.point.index < point.index)
+            .count();
+        let on_middle = passed == 1;
+        let near_fold =
+            (point.frequency - upper).abs() < 1e-4 || (point.frequency - lower).abs() < 1e-4;
+        if !near_fold {
+            assert_eq!(
+                point.stable, !on_middle,
+                "at Ω = {} (folds passed: {passed}), |μ| {}",
+                point.frequency, point.max_floquet_modulus
+            );
+        }
+    }
+    assert_eq!(passed, 2);
+    // Peaks off the folds against harmonic balance at the same frequency on the same branch:
+    // the stable points below the lower fold and above the upper.
+    for point in shooting
+        .points
+        .iter()
+        .filter(|p| p.frequency < 1.0 || p.frequency > 2.5)
+    {
+        let guess = reference
+            .iter()
+            .min_by(|a, b| {
+                (a.solution.omega - point.frequency)
+                    .abs()
+                    .total_cmp(&(b.solution.omega - point.frequency).abs())
+            })
+            .unwrap();
+        let hb = forced_harmonic_balance::solve(
+            &problem,
+            point.frequency,
+            harmonics,
+            Some(&guess.solution),
+        )
+        .unwrap();
+        let relative = (point.peaks[0] - peak(&hb, 0)).abs() / peak(&hb, 0);
+        assert!(
+            relative < 1e-6,
+            "peak at Ω = {}: {} vs {}",
+            point.frequency,
+            point.peaks[0],
+            peak(&hb, 0)
+        );
+    }
+}
+
+#[test]
+fn duffing_folds_and_stability_match_harmonic_balance_explicit() {
+    duffing_against_harmonic_balance(IntegrationMethod::Auto);
+}
+
+#[test]
+fn duffing_folds_and_stability_match_harmonic_balance_implicit() {
+    duffing_against_harmonic_balance(IntegrationMethod::Radau5);
+}
+
+/// The multipliers of a point on the unstable middle branch and of a stable one against the
+/// monodromy integrated independently: classical fixed-step RK4 of the Duffing motion and its
+/// variational equations `δx'' = −(1 + 3x²) δx − c δx'` over `T = 2π/Ω` (the scheme, the
+/// step and the time variable all differ from the solver's). Liouville's formula gives
+/// `det Φ = e^{−cT}` exactly, which checks the reference itself.
+#[test]
+fn multipliers_equal_an_independent_variational_integration() {
+    let duffing = nnm::model::duffing(1.0, 1.0).unwrap();
+    let c = 0.02;
+    let damping = Matrix::from_rows(&[vec![c]]).unwrap();
+    let system = ForcedSystem::new(&duffing, &damping, HarmonicForce::cosine(vec![1.0])).unwrap();
+    let sweep = Sweep::Frequency {
+        from: 0.5,
+        to: 3.5,
+        amplitude: 0.1,
+    };
+    let shooting = curve(&system, sweep, &ResponseSettings::default());
+    let unstable = shooting
+        .points
+        .iter()
+        .find(|p| !p.stable && p.max_floquet_modulus > 1.01)
+        .expect("an unstable point");
+    let stable = shooting
+        .points
+        .iter()
+        .find(|p| p.stable && p.frequency > 1.5)
+        .expect("a stable point");
+    for point in [unstable, stable] {
+        let omega = point.frequency;
+        let period = 2.0 * std::f64::consts::PI / omega;
+        let field = |t: f64, s: [f64; 6]| {
+            let [x, v, a, b, cc, d] = s;
+            let k = 1.0 + 3.0 * x * x;
+            // Φ = [[a, cc], [b, d]] by columns (δx, δv) of each.
+            [
+                v,
+                0.1 * (omega * t).cos() - c * v - x - x * x * x,
+                b,
+                -k * a - c * b,
+                d,
+                -k * cc - c * d,
+            ]
+        };
+        let steps = 20_000;
+        let h = period / steps as f64;
+        let mut s = [point.z0[0], point.z0[1], 1.0, 0.0, 0.0, 1.0];
+        for i in 0..steps {
+            let t = i as f64 * h;
+            let add = |s: [f64; 6], k: [f64; 6], w: f64| {
+                std::array::from_fn::<f64, 6, _>(|j| s[j] + w * k[j])
+            };
+            let k1 = field(t, s);
+            let k2 = field(t + 0.5 * h, add(s, k1, 0.5 * h));
+            let k3 = field(t + 0.5 * h, add(s, k2, 0.5 * h));
+            let k4 = field(t + h, add(s, k3, h));
+            s = std::array::from_fn(|j| {
+                s[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+            });
+        }
+        // The point is periodic by the reference integration too.
+        assert!(
+            (s[0] - point.z0[0]).abs() < 1e-7 && (s[1] - point.z0[1]).abs() < 1e-7,
+            "{s:?} vs {:?}",
+            point.z0
+        );
+        let (a, b, cc, d) = (s[2], s[3], s[4], s[5]);
+        let det = a * d - b * cc;
+        assert!(
+            (det - (-c * period).exp()).abs() < 1e-9,
+            "Liouville: {det} vs {}",
+            (-c * period).exp()
+        );
+        let trace = a + d;
+        let discriminant = trace * trace / 4.0 - det;
+        let mut reference: Vec<(f64, f64)> = if discriminant >= 0.0 {
+            vec![
+                (trace / 2.0 + discriminant.sqrt(), 0.0),
+                (trace / 2.0 - discriminant.sqrt(), 0.0),
+            ]
+        } else {
+            vec![
+                (trace / 2.0, (-discriminant).sqrt()),
+                (trace / 2.0, -(-discriminant).sqrt()),
+            ]
+        };
+        reference.sort_by(|p, q| q.0.hypot(q.1).total_cmp(&p.0.hypot(p.1)));
+        for (m, r) in point.multipliers.iter().zip(&reference) {
+            let error = (m.0 - r.0).hypot(m.1.abs() - r.1.abs());
+            assert!(error < 1e-6, "multiplier {m:?} vs {r:?} at Ω = {omega}");
+        }
+    }
+}
+
+/// A tuned disk driven in engine order k answers with a travelling wave: sector `s` repeats
+/// sector 0 delayed by `s k T/N` (`x_s(t) = x_0(t − s k T/N)`), which the solver does not
+/// impose — it shoots the whole disk. Checked on the bladed disk with light Rayleigh damping
+/// across its first engine-order-3 resonance.
+#[test]
+fn engine_order_response_is_a_travelling_wave() {
+    let disk = nnm::model::BladedDisk {
+        sectors: 6,
+        ..Default::default()
+    }
+    .build()
+    .unwrap();
+    let modes = nnm::modes::linear_modes(&disk).unwrap();
+    let k = 2;
+    let resonance = modes
+        .iter()
+        .find(|m| m.cyclic.as_ref().is_some_and(|c| c.diameters == k))
+        .unwrap()
+        .frequency;
+    let force = Force::EngineOrder {
+        engine_order: k,
+        amplitude: 0.05,
+        sector_dof: 1,
+    };
+    let damping = nnm::forced::damping::Damping::Rayleigh([0.0, 2e-3])
+        .matrix(&disk)
+        .unwrap();
+    let system = ForcedSystem::new(&disk, &damping, force.shape(&disk).unwrap()).unwrap();
+    let sweep = Sweep::Frequency {
+        from: 0.8 * resonance,
+        to: 1.2 * resonance,
+        amplitude: force.amplitude(),
+    };
+    let response = curve(&system, sweep, &ResponseSettings::default());
+    assert_eq!(response.stop, ResponseStop::End);
+    let (sectors, per) = (6, disk.dofs() / 6);
+    let n = disk.dofs();
+    let peak_point = response
+        .points
+        .iter()
+        .max_by(|a, b| a.peaks[0].total_cmp(&b.peaks[0]))
+        .unwrap();
+    for point in [peak_point, &response.points[0]] {
+        let drive = nnm::integrate::forced::Drive {
+            frequency: point.frequency,
+            amplitude: point.force_amplitude,
+        };
+        let tolerances = nnm::integrate::Tolerances {
+            relative: 1e-12,
+            absolute: 1e-14,
+            velocity_scale: point.frequency,
+        };
+        let mut integrator = nnm::integrate::forced::ForcedRungeKutta::new(
+            &system,
+            &nnm::integrate::DOP853,
+            tolerances,
+        );
+        let samples =
+            nnm::integrate::forced::sample(&mut integrator, &system, &point.z0, drive, sectors)
+                .unwrap();
+        let size = point.z0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for s in 0..sectors {
+            // x_s(0) = x_0(−s k T/N) = x_0 at sample (−s k mod N).
+            let j = (sectors - (s * k) % sectors) % sectors;
+            for d in 0..per {
+                for offset in [0, n] {
+                    let (a, b) = (point.z0[offset + s * per + d], samples[j].0[offset + d]);
+                    assert!(
+                        (a - b).abs() < 1e-6 * size,
+                        "sector {s} dof {d}: {a} vs {b}"
+                    );
+                }
+            }
+        }
+        // Every blade peaks alike.
+        let blades = &point.peaks;
+        assert_eq!(blades.len(), sectors);
+        for p in blades {
+            assert!((p - blades[0]).abs() < 1e-6 * blades[0]);
+        }
+    }
+}
