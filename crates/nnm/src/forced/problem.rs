@@ -200,6 +200,8 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     /// Rows `wᵀ u_x = c` that hold the rigid-body offsets of the first point (docs/method.md
     /// eq. (100a)): `w = Mφ` of each rigid-body mode `φ`, in scaled coordinates.
     rigid_pins: Vec<(Vec<f64>, f64)>,
+    /// Multipliers at +1 that the rigid-body modes bring (one or two a mode).
+    neutral_multipliers: usize,
     /// Work counters so far.
     pub stats: ForcedStats,
 }
@@ -225,6 +227,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             phase_dof,
             samples,
             rigid_pins: Vec::new(),
+            neutral_multipliers: 0,
             stats: ForcedStats::default(),
         }
     }
@@ -236,6 +239,18 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     pub fn hold_rigid_offsets(&mut self, rigid_modes: &[Vec<f64>], u0: &[f64]) {
         let n = self.system.dofs();
         let mass = self.system.system().mass();
+        let damping = self.system.damping();
+        let damping_scale = damping.values().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        self.neutral_multipliers = rigid_modes
+            .iter()
+            .map(|shape| {
+                let mut c_shape = vec![0.0; n];
+                damping.apply_add(1.0, shape, n, 1, &mut c_shape, n);
+                let undamped =
+                    linalg::norm(&c_shape) <= 1e-10 * damping_scale * linalg::norm(shape);
+                1 + usize::from(undamped)
+            })
+            .sum();
         self.rigid_pins = rigid_modes
             .iter()
             .map(|shape| {
@@ -418,6 +433,12 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
         detail: Detail,
     ) -> Result<ResponsePoint, ForcedError> {
         let mut multipliers = linalg::eigenvalues(evaluation.monodromy.as_ref())?;
+        // The rigid-body modes' multipliers sit at +1 (an offset, and a momentum when the
+        // damping leaves the mode free): neutral directions the offset rows hold, not a
+        // stability property. Left out, as the trivial pair of a free motion is.
+        let distance = |m: &Complex| (m.0 - 1.0).hypot(m.1);
+        multipliers.sort_by(|a, b| distance(a).total_cmp(&distance(b)));
+        multipliers.drain(..self.neutral_multipliers.min(multipliers.len()));
         let modulus = |m: &Complex| m.0.hypot(m.1);
         multipliers.sort_by(|a, b| modulus(b).total_cmp(&modulus(a)));
         let max_floquet_modulus = multipliers.first().map_or(0.0, modulus);

@@ -130,6 +130,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         let mut v = vec![0.0; s * n];
         let mut residual = vec![0.0; s * n];
         let mut force = vec![0.0; n];
+        let mut previous_update = f64::INFINITY;
         for _ in 0..MAX_STAGE_ITERATIONS {
             self.stage_states(x0, v0, &w, h, omega, &mut x, &mut v);
             let tangents: Vec<Mat<f64>> = (0..s)
@@ -167,7 +168,13 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             if !update.is_finite() {
                 return Err(IntegrationError::NotFinite { t: tau / omega });
             }
-            if update <= STAGE_TOLERANCE * size || size == 0.0 {
+            // Converged: the update is below the tolerance, or it stopped shrinking at a
+            // small size — the round-off floor of a stiff stage system lies above
+            // `STAGE_TOLERANCE` (1e-8 of the largest stage value on the 19-element ECL beam,
+            // in the stiff modes' components, which the step scales down by `h²/Ω`).
+            let stalled = update > 0.25 * previous_update && update <= 1e-6 * size;
+            previous_update = update;
+            if update <= STAGE_TOLERANCE * size || size == 0.0 || stalled {
                 self.stage_states(x0, v0, &w, h, omega, &mut x, &mut v);
                 return Ok(StepStages {
                     w,
@@ -177,7 +184,11 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 });
             }
         }
-        Err(IntegrationError::StepSizeUnderflow { t: tau / omega })
+        Err(IntegrationError::InvalidInput(format!(
+            "the stage equations did not converge at t = {:.6e}; tighten the tolerance or \
+             choose another integrator",
+            tau / omega
+        )))
     }
 
     /// `V_i`, `X_i` of the module notes.
