@@ -186,12 +186,6 @@ class Model:
         """Follows a branch of this model (see :func:`nnm.backbone`)."""
         return backbone(self, mode, **kwargs)
 
-    def frequency_response(self, force: Any, frequency: tuple[float, float], **kwargs: Any) -> Any:
-        """The forced response of this model (see :func:`nnm.frequency_response`)."""
-        from ._response import frequency_response
-
-        return frequency_response(self, force, frequency, **kwargs)
-
     def __repr__(self) -> str:
         cyclic = f", cyclic={self.cyclic}" if self.cyclic else ""
         damped = ", damped" if self._damping is not None else ""
