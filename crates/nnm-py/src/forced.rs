@@ -118,7 +118,11 @@ pub fn response_settings(table: toml::Table) -> Result<ResponseSettings, String>
                 .join(", ")
         ));
     }
-    let settings: ResponseSettings = table
+    // Over the defaults written out: serde fills a key missing from a flattened group with
+    // that group's own default (a branch's initial_step 0.1, not a response's 0.02).
+    let mut full = toml::Table::try_from(ResponseSettings::default()).map_err(|e| e.to_string())?;
+    full.extend(table);
+    let settings: ResponseSettings = full
         .try_into()
         .map_err(|e: toml::de::Error| e.message().to_string())?;
     let mut check = nnm::Settings::default();
@@ -496,4 +500,59 @@ pub fn forced_motion<'py>(
 #[pyfunction]
 pub fn force_amplitude(force: &Bound<'_, PyDict>) -> PyResult<f64> {
     Ok(force_from(force)?.amplitude())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(text: &str) -> toml::Table {
+        text.parse().expect("valid TOML")
+    }
+
+    /// The accepted keys are the core's `ResponseSettings` fields, flattened groups included,
+    /// and none of a branch's.
+    #[test]
+    fn keys_are_the_response_settings_fields() {
+        let keys = response_keys();
+        for key in [
+            "tolerance",
+            "max_step",
+            "integrator",
+            "events",
+            "max_points",
+            "samples",
+        ] {
+            assert!(keys.iter().any(|k| k == key), "{key} missing from {keys:?}");
+        }
+        assert!(!keys.iter().any(|k| k == "energy_max"));
+    }
+
+    /// A misspelt key is refused as the job file refuses one; values out of range with the
+    /// branch settings' messages; given values are used and the others keep the response's
+    /// own defaults (not a branch's).
+    #[test]
+    fn settings_are_checked_and_keep_the_response_defaults() {
+        let e = response_settings(table("tolerence = 1e-9")).unwrap_err();
+        assert!(
+            e.starts_with("unknown field `tolerence`, expected one of"),
+            "{e}"
+        );
+        let e = response_settings(table("tolerance = 0.1")).unwrap_err();
+        assert!(e.contains("tolerance 0.1 is too loose"), "{e}");
+        let e = response_settings(table("max_points = 0")).unwrap_err();
+        assert!(
+            e.contains("max_points and max_iterations must be at least 1"),
+            "{e}"
+        );
+        let e = response_settings(table("samples = 4")).unwrap_err();
+        assert!(e.contains("samples must be at least 8"), "{e}");
+        let s = response_settings(table("max_points = 7\ntolerance = 1e-10")).unwrap();
+        assert_eq!(s.max_points, 7);
+        assert_eq!(s.continuation.tolerance, 1e-10);
+        assert_eq!(
+            s.continuation.initial_step,
+            ResponseSettings::default().continuation.initial_step
+        );
+    }
 }
