@@ -125,10 +125,15 @@ pub fn response_settings(table: toml::Table) -> Result<ResponseSettings, String>
     let settings: ResponseSettings = full
         .try_into()
         .map_err(|e: toml::de::Error| e.message().to_string())?;
-    let mut check = nnm::Settings::default();
-    check.continuation = settings.continuation.clone();
-    check.integration = settings.integration.clone();
-    check.limits.max_points = settings.max_points;
+    let check = nnm::Settings {
+        continuation: settings.continuation.clone(),
+        integration: settings.integration.clone(),
+        limits: nnm::settings::Limits {
+            max_points: settings.max_points,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
     check.validate().map_err(|e| e.to_string())?;
     if settings.samples < 8 {
         return Err(format!(
