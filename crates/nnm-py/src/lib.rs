@@ -9,12 +9,15 @@
 //! - `convert`: Python values into job-file values, matrices and nonlinear elements;
 //! - `model`: the native classes `NativeModel` (the model API) and `NativeBranch`, and the
 //!   built-in families' default parameters (`family_defaults`);
+//! - `forced`: forced, damped responses (the damping beside the model, the force, the curve
+//!   and a point's motion);
 //! - `observer`: the continuation's points handed to a Python callback, Ctrl-C checked;
 //! - `results`: branches and modes as numpy arrays and dicts;
 //! - `errors`: library errors and panics as Python exceptions.
 
 mod convert;
 mod errors;
+mod forced;
 mod model;
 mod observer;
 mod results;
@@ -29,6 +32,12 @@ fn _nnm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeModel>()?;
     m.add_class::<NativeBranch>()?;
     m.add_function(wrap_pyfunction!(family_defaults, m)?)?;
+    m.add_class::<forced::NativeDamping>()?;
+    m.add_function(wrap_pyfunction!(forced::damping, m)?)?;
+    m.add_function(wrap_pyfunction!(forced::response, m)?)?;
+    m.add_function(wrap_pyfunction!(forced::forced_motion, m)?)?;
+    m.add_function(wrap_pyfunction!(forced::force_amplitude, m)?)?;
+    m.add("RESPONSE_SETTINGS_KEYS", forced::response_keys())?;
     m.add("SETTINGS_KEYS", nnm::Settings::KEYS.to_vec())?;
     m.add("FAMILIES", nnm_io::job::family_names().to_vec())?;
     m.add("POINT_COLUMNS", results::point_columns())?;

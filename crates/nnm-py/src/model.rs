@@ -25,7 +25,7 @@ use crate::results::{branch_dict, modes_dict, stop_kind, wave_name};
 /// A model held by the library, with the branches of the job file it came from (if any).
 #[pyclass(frozen, module = "nnm._nnm")]
 pub struct NativeModel {
-    structure: Structure,
+    pub(crate) structure: Structure,
     family: String,
     /// The `[[branch]]` entries of the job file (empty for other models).
     branches: Vec<BranchJob>,

@@ -228,14 +228,16 @@ def test_a_large_sparse_model_gets_its_lowest_modes_without_a_dense_matrix() -> 
 
 def test_family_constructors_show_the_librarys_parameters_and_refuse_others() -> None:
     """A family's constructor takes exactly the parameters the library's family struct
-    declares, in its order, keyword-only, with its defaults (help() shows them); an unknown
-    or positional argument is a TypeError before anything is built, as with a plain def."""
+    declares, in its order, keyword-only, with its defaults (help() shows them), then the
+    `damping` every family takes (kept beside the model); an unknown or positional argument
+    is a TypeError before anything is built, as with a plain def."""
     import inspect
 
     signature = inspect.signature(nnm.von_karman_beam)
     assert list(signature.parameters) == [
-        "elements", "length", "width", "thickness", "youngs_modulus", "density"
+        "elements", "length", "width", "thickness", "youngs_modulus", "density", "damping"
     ]
+    assert signature.parameters["damping"].default is None
     assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in signature.parameters.values())
     assert signature.parameters["elements"].default == 20
     assert inspect.signature(nnm.bladed_disk).parameters["blade_stiffness_mistuning"].default == []

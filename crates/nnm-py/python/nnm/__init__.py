@@ -15,6 +15,9 @@ Models: :class:`Model` (``M``, ``K`` as numpy or scipy.sparse, with :class:`Cubi
 :func:`bladed_disk`, :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`,
 :func:`von_karman_beam`. Analyses: :func:`modes`, :func:`backbone` (a :class:`Branch`),
 :func:`switch` (the family through a branch point or period doubling of a branch).
+Forced, damped responses: :func:`frequency_response` and :func:`force_response` (a
+:class:`Response`) of a model with damping (``Model(..., damping=...)``) driven by a
+:class:`Force`.
 Sweeps over mistuned or varied models on Dask: :func:`sweep` (:mod:`nnm.sweeps`; on the
 command line ``python -m nnm sweep``).
 Figures: :mod:`nnm.plot`. Errors: ``ValueError``/``TypeError`` for bad input,
@@ -36,7 +39,8 @@ from ._model import (
     two_dof,
     von_karman_beam,
 )
-from ._nnm import SETTINGS_KEYS, __version__
+from ._nnm import RESPONSE_SETTINGS_KEYS, SETTINGS_KEYS, __version__
+from ._response import Force, Response, ResponseEvent, Responses, force_response, frequency_response
 from .sweeps import sweep
 
 __all__ = [
@@ -44,11 +48,16 @@ __all__ = [
     "ContinuationError",
     "Cubic",
     "Event",
+    "Force",
     "Model",
     "Modes",
     "Motion",
     "NumericalError",
     "Polynomial",
+    "RESPONSE_SETTINGS_KEYS",
+    "Response",
+    "ResponseEvent",
+    "Responses",
     "SETTINGS_KEYS",
     "Tensor",
     "__version__",
@@ -56,6 +65,8 @@ __all__ = [
     "bladed_disk",
     "cantilever_beam",
     "duffing",
+    "force_response",
+    "frequency_response",
     "modes",
     "sweep",
     "switch",

@@ -37,6 +37,16 @@ class Model:
     dofs_per_sector)`` declares a cyclic symmetry with sector-major numbering, which gives the
     modes ``(n, d)`` labels.
 
+    Damping, for forced responses (:func:`nnm.frequency_response`): ``C=`` a matrix (numpy,
+    scipy.sparse or nested lists, symmetric positive semi-definite, in the numbering of ``M``
+    and ``K``), or ``damping=`` one of the job file's forms: ``{"rayleigh": [α, β]}``
+    (``C = αM + βK``), ``{"modal": [ζ1, ζ2, ...]}`` (ratios of the lowest elastic modes),
+    ``{"matrix": C}`` or ``{"file": "C.mtx"}`` (Matrix Market); the families (:func:`duffing`, ...)
+    take the same ``damping=`` keyword. The damping is kept beside the
+    conservative model (branches and modes ignore it); :meth:`with_damping` gives the same
+    model with another. A negative, non-finite or indefinite damping raises ``ValueError``
+    with the library's message (naming the entry or eigenvalue).
+
     Other constructors: :meth:`from_job` and the families :func:`bladed_disk`,
     :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`, :func:`von_karman_beam`.
     Bad input raises ``ValueError`` or ``TypeError`` with the message ``nnm run`` gives.
@@ -51,6 +61,9 @@ class Model:
         nonlinear: Iterable[Cubic | Polynomial | Tensor] = (),
         fixed_dofs: Sequence[int] | None = None,
         cyclic: tuple[int, int] | None = None,
+        *,
+        C: Any = None,
+        damping: Any = None,
     ) -> None:
         elements = []
         for k, element in enumerate(nonlinear):
@@ -73,11 +86,38 @@ class Model:
         self._native = _nnm.NativeModel.general(
             _matrix("mass", M), _matrix("stiffness", K), elements, fixed, cyclic
         )
+        if C is not None and damping is not None:
+            raise TypeError("give the damping either as `C` (a matrix) or as `damping`, not both")
+        spec = C if C is not None else damping
+        if fixed and spec is not None and not isinstance(spec, dict):
+            spec = _reduced(spec, fixed, np.shape(M)[0])
+        self._set_damping(spec)
+
+    def _set_damping(self, damping: Any) -> None:
+        """Builds and checks ``C`` for this model (the library's forms and messages) and keeps
+        it beside the conservative model, which never holds it."""
+        self._damping_spec = damping
+        self._damping = None if damping is None else _nnm.damping(self._native, _damping_form(damping))
+
+    def with_damping(self, damping: Any) -> "Model":
+        """This model with ``damping`` instead of its own (the forms of ``Model(damping=...)``),
+        sharing the conservative model: e.g. a job file's model,
+        ``Model.from_job(path).with_damping({"rayleigh": [0, 1e-4]})``."""
+        model = Model._wrap(self._native)
+        model._set_damping(damping)
+        return model
+
+    @property
+    def damping(self) -> Any:
+        """The damping as given (a dict form, a matrix), or ``None`` (undamped)."""
+        return self._damping_spec
 
     @classmethod
     def _wrap(cls, native: Any) -> "Model":
         model = cls.__new__(cls)
         model._native = native
+        model._damping = None
+        model._damping_spec = None
         return model
 
     @classmethod
@@ -148,7 +188,35 @@ class Model:
 
     def __repr__(self) -> str:
         cyclic = f", cyclic={self.cyclic}" if self.cyclic else ""
-        return f"<nnm.Model {self.family}, {self.dofs} dofs{cyclic}>"
+        damped = ", damped" if self._damping is not None else ""
+        return f"<nnm.Model {self.family}, {self.dofs} dofs{cyclic}{damped}>"
+
+
+def _damping_form(damping: Any) -> Any:
+    """A damping as the native module takes it: the dict of a named form, or a matrix
+    (``_matrix``); ``{"matrix": C}`` and ``{"file": path}`` become the matrix."""
+    if isinstance(damping, dict):
+        if set(damping) == {"matrix"}:
+            return _matrix("damping", damping["matrix"])
+        if set(damping) == {"file"}:
+            import scipy.io
+            import scipy.sparse
+
+            return _matrix("damping", scipy.sparse.csr_array(scipy.io.mmread(os.fspath(damping["file"]))))
+        return {k: [float(x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) else v for k, v in damping.items()}
+    return _matrix("damping", damping)
+
+
+def _reduced(c: Any, fixed: Sequence[int], n: int) -> Any:
+    """A damping matrix of the full numbering without the rows and columns of the fixed dofs,
+    as ``M`` and ``K`` are reduced (a matrix of another size is left for the library's size
+    check)."""
+    if np.shape(c) != (n, n):
+        return c
+    keep = np.setdiff1d(np.arange(n), np.asarray(fixed, dtype=int))
+    if type(c).__module__.startswith("scipy.sparse"):
+        return c.tocsr()[keep][:, keep]
+    return np.asarray(c)[np.ix_(keep, keep)]
 
 
 @dataclass(frozen=True)
@@ -279,20 +347,27 @@ def _built_in_family(name: str) -> Callable[[Callable[..., dict[str, Any]]], Cal
     docstring documents them and its body prepares the given values for the library."""
 
     def constructor(prepare: Callable[..., dict[str, Any]]) -> Callable[..., Model]:
-        signature = inspect.Signature(
-            [
-                inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, default=value,
-                                  annotation=type(value).__name__)
-                for key, value in _nnm.family_defaults(name).items()
-            ],
-            return_annotation="Model",
-        )
+        defaults = _nnm.family_defaults(name)
+        parameters = [
+            inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, default=value,
+                              annotation=type(value).__name__)
+            for key, value in defaults.items()
+        ]
+        if "damping" not in defaults:
+            # Every family takes a damping (the job file's `[model] damping`), kept beside it.
+            parameters.append(inspect.Parameter("damping", inspect.Parameter.KEYWORD_ONLY, default=None,
+                                                annotation="Any"))
+        signature = inspect.Signature(parameters, return_annotation="Model")
 
         @functools.wraps(prepare)
         def build(*args: Any, **parameters: Any) -> Model:
             # A TypeError for a positional or unknown argument, as a plain signature gives.
             given = signature.bind(*args, **parameters).arguments
-            return Model._family(name, prepare(**given))
+            damping = given.pop("damping", None)
+            model = Model._family(name, prepare(**given))
+            if damping is not None:
+                model._set_damping(damping)
+            return model
 
         build.__signature__ = signature  # type: ignore[attr-defined]
         return build

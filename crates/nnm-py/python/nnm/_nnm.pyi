@@ -8,6 +8,8 @@ FAMILIES: list[str]
 # (key, name, unit, doc, kind, csv, per_output_dof) of each point column, in declaration order.
 POINT_COLUMNS: list[tuple[str, str, str, str, str, bool, bool]]
 __version__: str
+# The keys of a forced response's settings (nnm::forced::ResponseSettings as serde writes them).
+RESPONSE_SETTINGS_KEYS: list[str]
 
 def family_defaults(family: str) -> dict[str, Any]: ...
 
@@ -53,3 +55,27 @@ class NativeModel:
         callback: Callable[[int, float, float, bool], Any] | None = None,
     ) -> dict[str, Any]: ...
     def motion(self, state0: np.ndarray, period: float, samples: int, tolerance: float) -> np.ndarray: ...
+
+class NativeDamping: ...
+
+def damping(model: NativeModel, spec: dict[str, Any] | np.ndarray | tuple[int, int, np.ndarray, np.ndarray, np.ndarray]) -> NativeDamping: ...
+def force_amplitude(force: dict[str, Any]) -> float: ...
+def response(
+    model: NativeModel,
+    damping: NativeDamping | None,
+    force: dict[str, Any],
+    sweep: tuple[str, float, float, float],
+    output_dofs: list[int] | None,
+    settings: dict[str, Any],
+    callback: Callable[[int, float, float, bool], Any] | None = None,
+) -> dict[str, Any]: ...
+def forced_motion(
+    model: NativeModel,
+    damping: NativeDamping | None,
+    force: dict[str, Any],
+    state0: np.ndarray,
+    frequency: float,
+    amplitude: float,
+    samples: int,
+    tolerance: float,
+) -> np.ndarray: ...

@@ -1,0 +1,563 @@
+//! Forced, damped responses from Python (`nnm.frequency_response`, `nnm.force_response`):
+//! the damping and the force read through the core's own serde forms (`nnm::forced::damping::
+//! Damping`, `nnm::forced::Force`), so that a script and a job file accept the same forms
+//! with the same messages; the curve computed by `nnm::forced::forced_response` without the
+//! GIL, Ctrl-C checked between points; the points handed back as numpy columns.
+
+use std::ops::ControlFlow;
+
+use nnm::forced::damping::Damping;
+use nnm::forced::{
+    Force, ResponseCurve, ResponseError, ResponseItem, ResponsePoint, ResponseSettings,
+    ResponseStop, Sweep, forced_response,
+};
+use nnm::integrate::forced::{Drive, ForcedIntegrator, ForcedRungeKutta};
+use nnm::integrate::{DOP853, Tolerances};
+use nnm::model::{ForcedSystem, HarmonicForce, Matrix, SparseMatrix};
+use nnm::{Item, MechanicalSystem, Structure};
+use numpy::ndarray::Array2;
+use numpy::{Complex64, IntoPyArray, PyReadonlyArray1};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyComplex, PyDict, PyList};
+
+use crate::convert::{matrix_from_py, table_from_dict};
+use crate::errors::{no_panic, numerical_error, value_error};
+use crate::model::NativeModel;
+
+/// A damping matrix `C` built for one model and checked (size, symmetry, semi-definiteness)
+/// when the Python model is made, kept beside it: the conservative model does not hold it.
+#[pyclass(frozen, module = "nnm._nnm")]
+pub struct NativeDamping {
+    matrix: Matrix,
+}
+
+/// A unit force on dof 0: what `ForcedSystem::new` needs beside `C` to check `C` alone.
+fn probe_force(n: usize) -> HarmonicForce {
+    let mut shape = vec![0.0; n];
+    if let Some(first) = shape.first_mut() {
+        *first = 1.0;
+    }
+    HarmonicForce::cosine(shape)
+}
+
+/// `C` of `model` from a Python damping: a dict of one of the core's forms (`{"rayleigh":
+/// [α, β]}`, `{"modal": [ζ, ...]}`) or a matrix as `convert::matrix_from_py` takes it.
+/// Every refusal is the core's message, as a `ValueError`.
+#[pyfunction]
+pub fn damping(
+    py: Python<'_>,
+    model: PyRef<'_, NativeModel>,
+    spec: &Bound<'_, PyAny>,
+) -> PyResult<NativeDamping> {
+    let form = if let Ok(dict) = spec.cast::<PyDict>() {
+        let value = toml::Value::Table(table_from_dict(dict)?);
+        value
+            .try_into::<Damping>()
+            .map_err(|e| PyValueError::new_err(format!("damping: {}", e.message())))?
+    } else {
+        Damping::Matrix(matrix_from_py("damping", spec)?)
+    };
+    let structure = &model.structure;
+    let matrix = py.detach(|| {
+        no_panic(|| {
+            let matrix = form.matrix(structure).map_err(value_error)?;
+            ForcedSystem::new(structure, &matrix, probe_force(structure.dofs()))
+                .map_err(value_error)?;
+            Ok(matrix)
+        })
+    })?;
+    Ok(NativeDamping { matrix })
+}
+
+/// The force of a Python dict (the job file's `force = { ... }` keys).
+fn force_from(dict: &Bound<'_, PyDict>) -> PyResult<Force> {
+    toml::Value::Table(table_from_dict(dict)?)
+        .try_into::<Force>()
+        .map_err(|e| PyValueError::new_err(format!("force: {}", e.message())))
+}
+
+/// `model` with `damping` (none: `C = 0`) driven by `force` at unit amplitude.
+fn forced_system<'a>(
+    structure: &'a Structure,
+    damping: Option<&NativeDamping>,
+    force: &Force,
+) -> PyResult<ForcedSystem<'a, Structure>> {
+    let n = structure.dofs();
+    let zero;
+    let c = match damping {
+        Some(d) => &d.matrix,
+        None => {
+            zero = Matrix::Sparse(SparseMatrix::from_triplets(n, &[]).map_err(value_error)?);
+            &zero
+        }
+    };
+    let shape = force.shape(structure).map_err(value_error)?;
+    ForcedSystem::new(structure, c, shape).map_err(value_error)
+}
+
+/// The keys a response's settings may have: the fields of [`ResponseSettings`] as serde
+/// writes them (the core declares them once; a new setting is accepted here without change).
+pub fn response_keys() -> Vec<String> {
+    toml::Table::try_from(ResponseSettings::default())
+        .map(|t| t.keys().cloned().collect())
+        .unwrap_or_default()
+}
+
+/// Settings from keyword arguments: an unknown key is refused (as the job file refuses one),
+/// and the values are held to the ranges a branch's settings are (`nnm::Settings::validate`,
+/// the same messages).
+pub fn response_settings(table: toml::Table) -> Result<ResponseSettings, String> {
+    let keys = response_keys();
+    if let Some(key) = table.keys().find(|k| !keys.contains(k)) {
+        return Err(format!(
+            "unknown field `{key}`, expected one of {}",
+            keys.iter()
+                .map(|k| format!("`{k}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    // Over the defaults written out: serde fills a key missing from a flattened group with
+    // that group's own default (a branch's initial_step 0.1, not a response's 0.02).
+    let mut full = toml::Table::try_from(ResponseSettings::default()).map_err(|e| e.to_string())?;
+    full.extend(table);
+    let settings: ResponseSettings = full
+        .try_into()
+        .map_err(|e: toml::de::Error| e.message().to_string())?;
+    let check = nnm::Settings {
+        continuation: settings.continuation.clone(),
+        integration: settings.integration.clone(),
+        limits: nnm::settings::Limits {
+            max_points: settings.max_points,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    check.validate().map_err(|e| e.to_string())?;
+    if settings.samples < 8 {
+        return Err(format!(
+            "samples must be at least 8, got {}",
+            settings.samples
+        ));
+    }
+    Ok(settings)
+}
+
+/// Hands each point to the Python callback `(index, frequency, force_amplitude, stable)` and
+/// checks for Ctrl-C between points (on Python's main thread only, as `observer::PyObserver`).
+struct ResponseObserver<'a> {
+    callback: Option<&'a Py<PyAny>>,
+    main_thread: bool,
+    error: Option<PyErr>,
+    stopped: bool,
+}
+
+impl ResponseObserver<'_> {
+    fn see(&mut self, item: &ResponseItem) -> ControlFlow<()> {
+        if self.error.is_some() {
+            return ControlFlow::Break(());
+        }
+        let Item::Point(p) = item else {
+            return ControlFlow::Continue(());
+        };
+        if self.callback.is_none() && !self.main_thread {
+            return ControlFlow::Continue(());
+        }
+        Python::attach(|py| {
+            if let Err(e) = py.check_signals() {
+                self.error = Some(e);
+                return ControlFlow::Break(());
+            }
+            let Some(callback) = self.callback else {
+                return ControlFlow::Continue(());
+            };
+            match callback.call1(py, (p.index, p.frequency, p.force_amplitude, p.stable)) {
+                Err(e) => {
+                    self.error = Some(e);
+                    ControlFlow::Break(())
+                }
+                Ok(answer)
+                    if answer.bind(py).is_instance_of::<PyBool>()
+                        && !answer.extract::<bool>(py).unwrap_or(true) =>
+                {
+                    self.stopped = true;
+                    ControlFlow::Break(())
+                }
+                Ok(_) => ControlFlow::Continue(()),
+            }
+        })
+    }
+}
+
+/// One curve: `sweep` is `("frequency", Ω0, Ω1, a)` or `("amplitude", a0, a1, Ω)`; `force`
+/// the job file's force keys, `settings` a response's keys. Returns a dict of numpy columns
+/// (see `curve_dict`); a first point that does not converge is data (`error`), bad input a
+/// `ValueError`, Ctrl-C or the callback's exception raised with the points so far on
+/// `partial`.
+#[pyfunction]
+#[pyo3(signature = (model, damping, force, sweep, output_dofs, settings, callback=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn response<'py>(
+    py: Python<'py>,
+    model: PyRef<'py, NativeModel>,
+    damping: Option<PyRef<'py, NativeDamping>>,
+    force: &Bound<'py, PyDict>,
+    sweep: (String, f64, f64, f64),
+    output_dofs: Option<Vec<usize>>,
+    settings: &Bound<'py, PyDict>,
+    callback: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let force = force_from(force)?;
+    let settings = response_settings(table_from_dict(settings)?).map_err(PyValueError::new_err)?;
+    let sweep = match sweep.0.as_str() {
+        "frequency" => Sweep::Frequency {
+            from: sweep.1,
+            to: sweep.2,
+            amplitude: sweep.3,
+        },
+        "amplitude" => Sweep::Amplitude {
+            from: sweep.1,
+            to: sweep.2,
+            frequency: sweep.3,
+        },
+        other => return Err(PyValueError::new_err(format!("unknown sweep `{other}`"))),
+    };
+    let structure = &model.structure;
+    let system = forced_system(structure, damping.as_deref(), &force)?;
+    let output_dofs = output_dofs.unwrap_or_default();
+    let threading = py.import("threading")?;
+    let main_thread = threading
+        .call_method0("current_thread")?
+        .is(&threading.call_method0("main_thread")?);
+    let mut observer = ResponseObserver {
+        callback: callback.as_ref(),
+        main_thread,
+        error: None,
+        stopped: false,
+    };
+    let clock = std::time::Instant::now();
+    let result = py.detach(|| {
+        no_panic(|| {
+            Ok(forced_response(
+                &system,
+                sweep,
+                &output_dofs,
+                &settings,
+                |item| observer.see(item),
+            ))
+        })
+    })?;
+    let wall_time = clock.elapsed().as_secs_f64();
+    let out = PyDict::new(py);
+    out.set_item("wall_time", wall_time)?;
+    out.set_item("dofs", structure.dofs())?;
+    match result {
+        Ok(curve) => {
+            curve_dict(py, &curve, &out)?;
+            let kind = match &curve.stop {
+                ResponseStop::Stopped if observer.stopped => "callback",
+                ResponseStop::Stopped => "interrupted",
+                ResponseStop::End => "end",
+                ResponseStop::Start => "start",
+                ResponseStop::MaxPoints => "max-points",
+                ResponseStop::Failed(_) => "failed",
+            };
+            out.set_item("stop_kind", kind)?;
+            let (stop, error) = match &curve.stop {
+                ResponseStop::Failed(m) => (format!("failed: {m}"), Some(m.clone())),
+                ResponseStop::End => ("reached the end of the sweep".into(), None),
+                ResponseStop::Start => ("turned back out of the start of the sweep".into(), None),
+                ResponseStop::MaxPoints => (
+                    format!("max_points ({}) reached", settings.max_points),
+                    None,
+                ),
+                ResponseStop::Stopped if observer.stopped => {
+                    ("stopped by the callback".into(), None)
+                }
+                ResponseStop::Stopped => ("interrupted".into(), None),
+            };
+            out.set_item("stop", stop)?;
+            out.set_item("error", error)?;
+        }
+        Err(ResponseError::Invalid(m)) => return Err(PyValueError::new_err(m)),
+        Err(e @ ResponseError::Continuation(_)) => {
+            let empty = ResponseCurve {
+                points: Vec::new(),
+                events: Vec::new(),
+                stop: ResponseStop::Failed(e.to_string()),
+                integrator: "",
+                output_dofs: if output_dofs.is_empty() {
+                    force.default_output_dofs(structure)
+                } else {
+                    output_dofs.clone()
+                },
+                phase_dof: 0,
+                stats: Default::default(),
+                continuation: Default::default(),
+            };
+            curve_dict(py, &empty, &out)?;
+            out.set_item("stop_kind", "first-point")?;
+            out.set_item("stop", format!("the first point failed: {e}"))?;
+            out.set_item("error", format!("the first point failed: {e}"))?;
+        }
+    }
+    if let Some(error) = observer.error {
+        error.value(py).setattr("partial", &out)?;
+        return Err(error);
+    }
+    Ok(out)
+}
+
+/// The per-point columns of `points` into `out` (`width` peaks a point).
+fn points_into<'py>(
+    py: Python<'py>,
+    points: &[&ResponsePoint],
+    width: usize,
+    out: &Bound<'py, PyDict>,
+) -> PyResult<()> {
+    let m = points.len();
+    let float =
+        |f: &dyn Fn(&ResponsePoint) -> f64| -> Vec<f64> { points.iter().map(|p| f(p)).collect() };
+    out.set_item(
+        "index",
+        points
+            .iter()
+            .map(|p| p.index as i64)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    out.set_item("frequency", float(&|p| p.frequency).into_pyarray(py))?;
+    out.set_item(
+        "force_amplitude",
+        float(&|p| p.force_amplitude).into_pyarray(py),
+    )?;
+    out.set_item(
+        "harmonic_amplitude",
+        float(&|p| p.harmonic_amplitude).into_pyarray(py),
+    )?;
+    out.set_item("phase_lag", float(&|p| p.phase_lag).into_pyarray(py))?;
+    out.set_item(
+        "max_floquet_modulus",
+        float(&|p| p.max_floquet_modulus).into_pyarray(py),
+    )?;
+    out.set_item(
+        "relative_residual",
+        float(&|p| p.relative_residual).into_pyarray(py),
+    )?;
+    out.set_item("step", float(&|p| p.step).into_pyarray(py))?;
+    out.set_item(
+        "iterations",
+        points
+            .iter()
+            .map(|p| p.iterations as i64)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    out.set_item(
+        "integration_steps",
+        points
+            .iter()
+            .map(|p| p.integration_steps as i64)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    out.set_item(
+        "stable",
+        points
+            .iter()
+            .map(|p| p.stable)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    let peaks = Array2::from_shape_fn((m, width), |(k, d)| {
+        points[k].peaks.get(d).copied().unwrap_or(f64::NAN)
+    });
+    out.set_item("peaks", peaks.into_pyarray(py))?;
+    let n2 = points.first().map_or(0, |p| p.z0.len());
+    out.set_item(
+        "state0",
+        Array2::from_shape_fn((m, n2), |(k, i)| points[k].z0[i]).into_pyarray(py),
+    )?;
+    let mu = points
+        .iter()
+        .map(|p| p.multipliers.len())
+        .max()
+        .unwrap_or(0);
+    let multipliers = Array2::from_shape_fn((m, mu), |(k, i)| {
+        points[k]
+            .multipliers
+            .get(i)
+            .map_or(Complex64::new(f64::NAN, f64::NAN), |c| {
+                Complex64::new(c.0, c.1)
+            })
+    });
+    out.set_item("multipliers", multipliers.into_pyarray(py))?;
+    Ok(())
+}
+
+/// A curve's points as numpy columns, its events as dicts, why it ended and its counters.
+fn curve_dict<'py>(
+    py: Python<'py>,
+    curve: &ResponseCurve,
+    out: &Bound<'py, PyDict>,
+) -> PyResult<()> {
+    let width = curve.output_dofs.len();
+    let points: Vec<&ResponsePoint> = curve.points.iter().collect();
+    points_into(py, &points, width, out)?;
+    out.set_item("output_dofs", curve.output_dofs.clone())?;
+    out.set_item("phase_dof", curve.phase_dof)?;
+    out.set_item("integrator", curve.integrator)?;
+    let events = PyList::empty(py);
+    for e in &curve.events {
+        let d = PyDict::new(py);
+        d.set_item("kind", e.kind.name())?;
+        d.set_item("after_point", e.point.index)?;
+        d.set_item("frequency", e.point.frequency)?;
+        d.set_item("force_amplitude", e.point.force_amplitude)?;
+        d.set_item("peaks", e.point.peaks.clone().into_pyarray(py))?;
+        d.set_item("harmonic_amplitude", e.point.harmonic_amplitude)?;
+        d.set_item("phase_lag", e.point.phase_lag)?;
+        d.set_item(
+            "critical_multiplier",
+            PyComplex::from_doubles(py, e.critical_multiplier.0, e.critical_multiplier.1),
+        )?;
+        d.set_item("state0", e.point.z0.clone().into_pyarray(py))?;
+        events.append(d)?;
+    }
+    out.set_item("events", events)?;
+    let stats = PyDict::new(py);
+    stats.set_item("points", curve.continuation.points)?;
+    stats.set_item("newton_iterations", curve.continuation.newton_iterations)?;
+    stats.set_item("rejected_steps", curve.continuation.rejected_steps)?;
+    stats.set_item("location_steps", curve.continuation.location_steps)?;
+    stats.set_item("evaluations", curve.stats.evaluations)?;
+    stats.set_item("integrations", curve.stats.integrations)?;
+    stats.set_item("integration_steps", curve.stats.integration.steps)?;
+    stats.set_item("factorisations", curve.stats.integration.factorisations)?;
+    out.set_item("stats", stats)?;
+    Ok(())
+}
+
+/// The forced motion from `state0` over one forcing period `2π/Ω` at force amplitude
+/// `amplitude`, at `samples + 1` equal times (the last closes the orbit), each segment
+/// integrated by DOP853 to relative `tolerance`: a `(samples + 1) × 2n` array.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn forced_motion<'py>(
+    py: Python<'py>,
+    model: PyRef<'py, NativeModel>,
+    damping: Option<PyRef<'py, NativeDamping>>,
+    force: &Bound<'py, PyDict>,
+    state0: PyReadonlyArray1<'py, f64>,
+    frequency: f64,
+    amplitude: f64,
+    samples: usize,
+    tolerance: f64,
+) -> PyResult<Bound<'py, PyAny>> {
+    let force = force_from(force)?;
+    let structure = &model.structure;
+    let n = structure.dofs();
+    let z0 = state0.as_slice()?.to_vec();
+    if z0.len() != 2 * n || !(frequency.is_finite() && frequency > 0.0) || samples == 0 {
+        return Err(PyValueError::new_err(format!(
+            "motion needs a state of 2 x {n} values, a positive frequency and at least one sample"
+        )));
+    }
+    nnm::settings::check_tolerance(tolerance).map_err(|e| PyValueError::new_err(e.0))?;
+    let system = forced_system(structure, damping.as_deref(), &force)?;
+    let size = z0[..n].iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let tolerances = Tolerances {
+        relative: tolerance,
+        absolute: tolerance * if size > 0.0 { size } else { 1.0 },
+        velocity_scale: frequency,
+    };
+    let states = py.detach(|| {
+        no_panic(|| {
+            let mut integrator = ForcedRungeKutta::new(&system, &DOP853, tolerances);
+            let drive = Drive {
+                frequency,
+                amplitude,
+            };
+            let span = 2.0 * std::f64::consts::PI / samples as f64;
+            let mut states = vec![z0.clone()];
+            for k in 0..samples {
+                let next = integrator.advance(&states[k], k as f64 * span, span, drive);
+                match next {
+                    Ok(z) => states.push(z),
+                    Err(e) => return Ok(Err(e)),
+                }
+            }
+            Ok(Ok(states))
+        })
+    })?;
+    match states {
+        Ok(states) => {
+            let a = Array2::from_shape_fn((states.len(), 2 * n), |(k, i)| states[k][i]);
+            Ok(a.into_pyarray(py).into_any())
+        }
+        Err(e) => Err(numerical_error(py, e.to_string())),
+    }
+}
+
+/// A force dict's value as the core reads it, for the Python `Force`'s checks: the force's
+/// own amplitude (1 for a vector).
+#[pyfunction]
+pub fn force_amplitude(force: &Bound<'_, PyDict>) -> PyResult<f64> {
+    Ok(force_from(force)?.amplitude())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(text: &str) -> toml::Table {
+        text.parse().expect("valid TOML")
+    }
+
+    /// The accepted keys are the core's `ResponseSettings` fields, flattened groups included,
+    /// and none of a branch's.
+    #[test]
+    fn keys_are_the_response_settings_fields() {
+        let keys = response_keys();
+        for key in [
+            "tolerance",
+            "max_step",
+            "integrator",
+            "events",
+            "max_points",
+            "samples",
+        ] {
+            assert!(keys.iter().any(|k| k == key), "{key} missing from {keys:?}");
+        }
+        assert!(!keys.iter().any(|k| k == "energy_max"));
+    }
+
+    /// A misspelt key is refused as the job file refuses one; values out of range with the
+    /// branch settings' messages; given values are used and the others keep the response's
+    /// own defaults (not a branch's).
+    #[test]
+    fn settings_are_checked_and_keep_the_response_defaults() {
+        let e = response_settings(table("tolerence = 1e-9")).unwrap_err();
+        assert!(
+            e.starts_with("unknown field `tolerence`, expected one of"),
+            "{e}"
+        );
+        let e = response_settings(table("tolerance = 0.1")).unwrap_err();
+        assert!(e.contains("tolerance 0.1 is too loose"), "{e}");
+        let e = response_settings(table("max_points = 0")).unwrap_err();
+        assert!(
+            e.contains("max_points and max_iterations must be at least 1"),
+            "{e}"
+        );
+        let e = response_settings(table("samples = 4")).unwrap_err();
+        assert!(e.contains("samples must be at least 8"), "{e}");
+        let s = response_settings(table("max_points = 7\ntolerance = 1e-10")).unwrap();
+        assert_eq!(s.max_points, 7);
+        assert_eq!(s.continuation.tolerance, 1e-10);
+        assert_eq!(
+            s.continuation.initial_step,
+            ResponseSettings::default().continuation.initial_step
+        );
+    }
+}

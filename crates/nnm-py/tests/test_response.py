@@ -1,0 +1,323 @@
+"""Forced, damped responses from Python (nnm.frequency_response, nnm.force_response): each
+checked against something the shooting does not compute — the complex solve
+``(K − Ω²M + iΩC)⁻¹F`` done here with numpy for linear models (with Rayleigh and modal damping
+built here from M, K and scipy's eigenvectors), harmonic-balance fold frequencies of the
+Duffing oscillator computed independently — and every bad input refused with the library's
+one-line message before anything is computed."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+import scipy.sparse as sp
+
+import nnm
+
+# A three-dof chain, fixed at one end, with a non-proportional damper between dofs 1 and 2.
+M3 = np.diag([1.0, 2.0, 1.5])
+K3 = np.array([[3.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+C3 = np.array([[0.05, 0.0, 0.0], [0.0, 0.08, -0.06], [0.0, -0.06, 0.06]])
+F3 = np.array([0.0, 1.0, 0.0])  # Force(dofs=[1], amplitude=1)
+
+
+def complex_response(M, K, C, F, omega):
+    """``X`` of ``x(t) = Re(X e^{iΩt})``, the steady response to ``F cos Ωt``."""
+    return np.linalg.solve(K - omega**2 * M + 1j * omega * C, F)
+
+
+def check_linear(response, M, K, C, F, rtol):
+    """Every point's state at t = 0, peaks, first-harmonic amplitude and phase lag against
+    the complex solve at its frequency and force amplitude."""
+    assert len(response) > 5
+    scale = 0.0
+    for k in range(len(response)):
+        omega, a = response.frequency[k], response.force_amplitude[k]
+        X = complex_response(M, K, C, a * F, omega)
+        scale = max(scale, np.abs(X).max())
+        n = len(F)
+        x0, v0 = response.state0[k, :n], response.state0[k, n:]
+        np.testing.assert_allclose(x0, X.real, rtol=0, atol=rtol * np.abs(X).max())
+        np.testing.assert_allclose(v0, -omega * X.imag, rtol=0, atol=rtol * omega * np.abs(X).max())
+        np.testing.assert_allclose(response.peaks[k], np.abs(X[response.output_dofs]), rtol=rtol)
+        d = response.phase_dof
+        np.testing.assert_allclose(response.harmonic_amplitude[k], abs(X[d]), rtol=rtol)
+        lag = (-np.angle(X[d]) + np.pi / 2) % (2 * np.pi) - np.pi / 2  # in (−π/2, 3π/2]
+        assert abs(np.angle(np.exp(1j * (response.phase_lag[k] - lag)))) < rtol * 10
+    # Linear: every point stable, no event.
+    assert response.stable.all()
+    assert response.events == []
+
+
+def test_linear_response_equals_the_complex_solve():
+    model = nnm.Model(M3, K3, C=C3)
+    r = nnm.frequency_response(
+        model, nnm.Force(dofs=[1], amplitude=0.3), (0.2, 2.0), output_dofs=[0, 1, 2], tolerance=1e-12
+    )
+    assert r.stop_kind == "end"
+    assert r.frequency[0] == 0.2 and abs(r.frequency[-1] / 2.0 - 1) < 1e-9
+    np.testing.assert_array_equal(r.force_amplitude, 0.3)
+    check_linear(r, M3, K3, C3, F3, 1e-9)
+    # The points cross the resonances: the peak of the driven dof exceeds its static value.
+    assert r.peaks[:, 1].max() > 2 * abs(complex_response(M3, K3, C3, 0.3 * F3, 1e-9)[1])
+
+
+def test_rayleigh_and_modal_damping_are_the_documented_matrices():
+    alpha, beta = 0.02, 0.01
+    rayleigh = nnm.Model(sp.csr_array(M3), K3, damping={"rayleigh": [alpha, beta]})
+    r = nnm.frequency_response(rayleigh, {"dofs": [1], "amplitude": 1.0}, (0.3, 1.8), tolerance=1e-12)
+    check_linear(r, M3, K3, alpha * M3 + beta * K3, F3, 1e-9)
+
+    # Modal: C = M Φ diag(2 ζ_k ω_k) Φᵀ M over the lowest modes given, Φ mass-normalised.
+    zeta = [0.02, 0.05]
+    w2, phi = scipy.linalg.eigh(K3, M3)
+    weights = np.zeros(3)
+    weights[:2] = 2 * np.array(zeta) * np.sqrt(w2[:2])
+    C = M3 @ phi @ np.diag(weights) @ phi.T @ M3
+    modal = nnm.Model(M3, K3, damping={"modal": zeta})
+    r = nnm.frequency_response(modal, nnm.Force(vector=[0.5, 0.0, -0.2]), (0.3, 1.2), tolerance=1e-12)
+    check_linear(r, M3, K3, C, np.array([0.5, 0.0, -0.2]), 1e-9)
+    assert r.output_dofs == [0, 2]  # the forced dofs by default
+
+
+def test_force_amplitude_continuation_is_proportional_for_a_linear_model():
+    model = nnm.Model(M3, K3, C=C3)
+    omega = 0.9
+    r = nnm.force_response(model, nnm.Force(dofs=1, amplitude=0.1), frequency=omega, amplitude_max=2.0,
+                           tolerance=1e-12)
+    assert r.parameter == "amplitude" and r.stop_kind == "end"
+    np.testing.assert_array_equal(r.frequency, omega)
+    assert r.force_amplitude[0] == 0.1 and abs(r.force_amplitude[-1] / 2.0 - 1) < 1e-9
+    check_linear(r, M3, K3, C3, F3, 1e-9)
+
+
+# Duffing x'' + 0.02 x' + x + x³ = 0.1 cos Ωt: fold frequencies from an independent
+# harmonic balance with enough harmonics to be converged far below 1e-6.
+DUFFING_FOLDS = (2.2115438, 1.1701620)
+
+
+@pytest.fixture(scope="module")
+def duffing_response():
+    model = nnm.duffing(natural_frequency=1.0, cubic=1.0, damping=[[0.02]])
+    return nnm.frequency_response(model, nnm.Force(dofs=[0], amplitude=0.1), (0.5, 3.5), tolerance=1e-10)
+
+
+def test_duffing_folds_and_the_unstable_middle_branch(duffing_response):
+    r = duffing_response
+    assert r.stop_kind == "end"
+    folds = r.folds
+    assert [e.kind for e in r.events] == ["fold", "fold"]
+    for event, reference in zip(folds, DUFFING_FOLDS):
+        assert abs(event.frequency - reference) < 1e-6, (event.frequency, reference)
+        # A fold's critical multiplier is real and at +1.
+        assert abs(event.critical_multiplier - 1) < 1e-4
+    # The curve runs forward to the upper fold, back to the lower one, then forward again:
+    # the points between the folds (the middle branch) are the unstable ones, and only they.
+    first, second = folds[0].after_point, folds[1].after_point
+    middle = (r.index > first) & (r.index <= second)
+    assert middle.sum() > 3
+    assert not r.stable[middle].any()
+    assert r.stable[~middle].all()
+    assert (r.max_floquet_modulus[middle] > 1).all()
+    # The frequency decreases along the middle branch.
+    assert (np.diff(r.frequency[middle]) < 0).all()
+
+
+def test_motion_closes_the_orbit_and_starts_at_the_state(duffing_response):
+    r = duffing_response
+    i = int(np.argmax(r.peaks[:, 0]))
+    motion = r.motion(i, samples=200)
+    assert motion.x.shape == (201, 1)
+    np.testing.assert_allclose(motion.t[-1], 2 * np.pi / r.frequency[i])
+    np.testing.assert_allclose(motion.x[0, 0], r.state0[i, 0])
+    np.testing.assert_allclose(motion.x[-1], motion.x[0], atol=1e-8 * r.peaks[i, 0])
+    # The peak recorded is the motion's largest |x| (sampled: at most a little below it).
+    assert np.abs(motion.x).max() <= r.peaks[i, 0] * (1 + 1e-9)
+    assert np.abs(motion.x).max() > r.peaks[i, 0] * (1 - 1e-3)
+    with pytest.raises(ValueError, match="point 9999 does not exist"):
+        r.motion(9999)
+
+
+def test_linear_motion_is_the_harmonic():
+    model = nnm.Model(M3, K3, C=C3)
+    r = nnm.frequency_response(model, nnm.Force(dofs=[1], amplitude=0.3), (0.5, 0.8), tolerance=1e-12)
+    motion = r.motion(-1, samples=50)
+    X = complex_response(M3, K3, C3, 0.3 * F3, r.frequency[-1])
+    expected = (X[None, :] * np.exp(1j * r.frequency[-1] * motion.t[:, None])).real
+    np.testing.assert_allclose(motion.x, expected, atol=1e-9 * np.abs(X).max())
+
+
+def test_levels_to_pandas_and_plot(duffing_response):
+    model = nnm.duffing(damping={"rayleigh": [0.02, 0.0]})
+    levels = nnm.frequency_response(model, nnm.Force(dofs=[0], amplitude=1.0), (0.5, 2.5),
+                                    amplitudes=[0.002, 0.1])
+    assert isinstance(levels, nnm.Responses) and len(levels) == 2
+    assert [r.force.amplitude for r in levels] == [0.002, 0.1]
+    for r, a in zip(levels, [0.002, 0.1]):
+        np.testing.assert_array_equal(r.force_amplitude, a)
+    # Below the bistability threshold (a ≈ 0.004 for ζ = 0.01) no fold; above it two.
+    assert len(levels[0].folds) == 0 and len(levels[1].folds) == 2
+    table = levels.to_pandas()
+    assert list(table.columns[:4]) == ["frequency_rad_s", "frequency_hz", "force_amplitude", "peak_x0"]
+    assert len(table) == len(levels[0]) + len(levels[1])
+    ax = levels.plot()
+    styles = {line.get_linestyle() for line in ax.get_lines()}
+    assert "--" in styles and "-" in styles  # the unstable middle branch is dashed
+    markers = [line for line in ax.get_lines() if line.get_marker() == "o"]
+    assert len(markers) == 2  # the two folds
+    ax = duffing_response.plot()
+    assert ax.get_xlabel().startswith("frequency")
+
+
+def test_callback_stops_and_an_interrupt_keeps_the_points():
+    model = nnm.duffing(damping=[[0.02]])
+    seen = []
+
+    def stop_at_five(index, frequency, amplitude, stable):
+        seen.append((index, frequency, amplitude, stable))
+        return index < 4
+
+    r = nnm.frequency_response(model, nnm.Force(dofs=[0], amplitude=0.1), (0.5, 3.5), callback=stop_at_five)
+    assert r.stop_kind == "callback" and len(r) == 5 == len(seen)
+
+    def interrupt(index, frequency, amplitude, stable):
+        if index == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt) as caught:
+        nnm.frequency_response(model, nnm.Force(dofs=[0], amplitude=0.1), (0.5, 3.5), callback=interrupt)
+    partial = caught.value.response
+    assert len(partial) == 4 and partial.stop_kind == "interrupted"
+    assert any("computed so far" in note for note in getattr(caught.value, "__notes__", []))
+
+
+def grounded_disk(sectors=6):
+    """The bladed disk's M and K with every disk grounded by a spring of 0.5 (the family's
+    disk turns freely: a rigid-body mode, whose forced response is not unique), cyclic."""
+    disk = nnm.bladed_disk(sectors=sectors)
+    K = np.asarray(disk.K.todense() if hasattr(disk.K, "todense") else disk.K, dtype=float)
+    M = np.asarray(disk.M.todense() if hasattr(disk.M, "todense") else disk.M, dtype=float)
+    K[::2, ::2] += 0.5 * np.eye(sectors)
+    return M, K
+
+
+def test_engine_order_force_drives_a_travelling_wave():
+    sectors, k = 6, 2
+    M, K = grounded_disk(sectors)
+    beta = 1e-2
+    disk = nnm.Model(M, K, cyclic=(sectors, 2), damping={"rayleigh": [0.0, beta]})
+    force = nnm.Force(engine_order=k, amplitude=0.5, sector_dof=1)
+    r = nnm.frequency_response(disk, force, (0.6, 1.4), tolerance=1e-12)
+    # Every blade is an output dof by default.
+    assert r.output_dofs == [2 * s + 1 for s in range(sectors)]
+    # Dof 1 of sector s driven by a cos(Ωt − 2πks/N): complex amplitude a e^{−2πiks/N}.
+    F = np.zeros(2 * sectors, dtype=complex)
+    F[1::2] = np.exp(-2j * np.pi * k * np.arange(sectors) / sectors)
+    for i in range(len(r)):
+        X = complex_response(M, K, beta * K, 0.5 * F, r.frequency[i])
+        np.testing.assert_allclose(r.peaks[i], np.abs(X[1::2]), rtol=1e-9)
+        np.testing.assert_allclose(r.state0[i, : 2 * sectors], X.real, atol=1e-9 * np.abs(X).max())
+    # A travelling wave of a tuned disk: every blade's peak is the same.
+    np.testing.assert_allclose(r.peaks, r.peaks[:, :1] * np.ones((1, sectors)), rtol=1e-9)
+
+
+# Bad input: one line, ValueError, the library's words, before anything is computed.
+
+
+@pytest.mark.parametrize(
+    "damping, message",
+    [
+        ({"rayleigh": [-0.1, 0.0]}, "damping rayleigh α must be non-negative and finite, got -0.1"),
+        ({"rayleigh": [0.0, float("nan")]}, "damping rayleigh β must be non-negative and finite"),
+        ({"modal": [0.01, -0.02]}, "damping modal ratio 2 must be non-negative"),
+        ({"modal": [0.01] * 4}, "4 modal damping ratios given, the model has 3 elastic modes"),
+        ([[0.1, 0.0, 0.0], [0.0, -0.2, 0.0], [0.0, 0.0, 0.1]], r"not positive semi-definite \(eigenvalue -0.2"),
+        ([[0.1, 0.05, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]], "damping matrix is not symmetric"),
+        (np.eye(2), "damping matrix is 2x2, expected 3x3"),
+        ({"viscous": [1.0]}, "unknown variant `viscous`"),
+    ],
+)
+def test_bad_damping(damping, message):
+    with pytest.raises(ValueError, match=message):
+        nnm.Model(M3, K3, damping=damping)
+
+
+def test_damping_given_twice_or_on_a_family():
+    with pytest.raises(TypeError, match="either"):
+        nnm.Model(M3, K3, C=C3, damping={"rayleigh": [0.1, 0.0]})
+    with pytest.raises(ValueError, match="non-negative"):
+        nnm.duffing(damping={"rayleigh": [-1.0, 0.0]})
+    # Fixed dofs: C in the full numbering is reduced as M and K are.
+    model = nnm.Model(np.diag([1.0, *np.diag(M3)]), scipy.linalg.block_diag([[5.0]], K3),
+                      C=scipy.linalg.block_diag([[1.0]], C3), fixed_dofs=[0])
+    r = nnm.frequency_response(model, nnm.Force(dofs=[1], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
+    check_linear(r, M3, K3, C3, F3, 1e-9)
+
+
+@pytest.mark.parametrize(
+    "force, frequency, message",
+    [
+        (nnm.Force(dofs=[0], amplitude=0.1), (2.0, 1.0), r"frequency_end must exceed frequency_start \(2\), got 1"),
+        (nnm.Force(dofs=[0], amplitude=0.1), (1.0, 1.0), "frequency_end must exceed frequency_start"),
+        (nnm.Force(dofs=[0], amplitude=0.1), (0.0, 1.0), "frequency_start must be positive, got 0"),
+        (nnm.Force(dofs=[0], amplitude=0.0), (0.5, 1.0), "the force amplitude must be non-zero, got 0"),
+        (nnm.Force(vector=[0.0, 0.0, 0.0]), (0.5, 1.0), "the force is zero"),
+        (nnm.Force(vector=[1.0, 0.0]), (0.5, 1.0), "the force vector has 2 entries, the model 3 dofs"),
+        (nnm.Force(dofs=[3], amplitude=1.0), (0.5, 1.0), r"forced dof 3 is out of range \(the model has 3 dofs\)"),
+        (nnm.Force(engine_order=1, amplitude=1.0, sector_dof=0), (0.5, 1.0),
+         "engine-order excitation needs a cyclic model"),
+    ],
+)
+def test_bad_sweep_or_force(force, frequency, message):
+    model = nnm.Model(M3, K3, C=C3)
+    with pytest.raises(ValueError, match=message):
+        nnm.frequency_response(model, force, frequency)
+
+
+def test_bad_engine_order_settings_and_force_forms():
+    M, K = grounded_disk(6)
+    disk = nnm.Model(M, K, cyclic=(6, 2), damping={"rayleigh": [0.0, 1e-2]})
+    sectors = 6
+    with pytest.raises(ValueError, match=f"engine order {sectors} is beyond N/2"):
+        nnm.frequency_response(disk, nnm.Force(engine_order=sectors, amplitude=1.0, sector_dof=1), (1.0, 2.0))
+    model = nnm.Model(M3, K3, C=C3)
+    force = nnm.Force(dofs=[0], amplitude=0.1)
+    with pytest.raises(ValueError, match="unknown field `tolerence`, expected one of"):
+        nnm.frequency_response(model, force, (0.5, 1.0), tolerence=1e-9)
+    with pytest.raises(ValueError, match="tolerance 0.1 is too loose"):
+        nnm.frequency_response(model, force, (0.5, 1.0), tolerance=0.1)
+    with pytest.raises(ValueError, match=r"output dof 7 is out of range"):
+        nnm.frequency_response(model, force, (0.5, 1.0), output_dofs=[7])
+    with pytest.raises(ValueError, match="amplitude_max must exceed the starting amplitude"):
+        nnm.force_response(model, force, frequency=1.0, amplitude_max=0.05)
+    with pytest.raises(TypeError, match="frequency must be"):
+        nnm.frequency_response(model, force, 1.0)
+    with pytest.raises(TypeError, match="needs `amplitude`"):
+        nnm.Force(dofs=[0])
+    with pytest.raises(TypeError, match="takes nothing else"):
+        nnm.Force(vector=[1.0], amplitude=2.0)
+    with pytest.raises(TypeError, match="needs `amplitude` and `sector_dof`"):
+        nnm.Force(engine_order=1, amplitude=1.0)
+    with pytest.raises(TypeError):
+        nnm.frequency_response(model, {"dofs": [0], "amplitude": 1.0, "phase": 0.0}, (0.5, 1.0))
+
+
+def test_ctrl_c_stops_between_points_and_keeps_them():
+    """A real SIGINT (as Ctrl-C sends) during a long curve: the library checks for it between
+    points, and the KeyboardInterrupt carries the points so far."""
+    import _thread
+    import threading
+
+    model = nnm.duffing(damping=[[0.02]])
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt) as caught:
+            nnm.frequency_response(model, nnm.Force(dofs=[0], amplitude=0.1), (0.5, 3.5), max_step=1e-4,
+                                   initial_step=1e-4, max_points=100000, progress=False)
+    finally:
+        timer.cancel()
+    partial = caught.value.response
+    assert partial.stop_kind == "interrupted"
+    assert 0 < len(partial) < 100000
+    assert partial.frequency[0] == 0.5
