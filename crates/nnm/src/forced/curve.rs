@@ -16,6 +16,11 @@ use super::linear::LinearOperators;
 use super::problem::{ForcedShooting, ForcedStats, ResponsePoint, Scales, Sweep};
 
 /// Settings of a forced response curve.
+///
+/// Serialized flat (the continuation and integration groups' keys beside `events`,
+/// `max_points`, `samples`). Deserializing a partial table fills a missing continuation key
+/// from [`ContinuationSettings::default`], not from this type's defaults (serde's `flatten`):
+/// front ends merge what the user gave over the serialized [`ResponseSettings::default`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]
 pub struct ResponseSettings {
