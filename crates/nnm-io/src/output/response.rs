@@ -500,3 +500,70 @@ impl ResponseWriter {
         self.rewrite("finished")
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// docs/output.md's table of `<response>.csv` has a row for every column, with the unit
+    /// declared here.
+    #[test]
+    fn docs_output_md_lists_every_response_column_with_its_unit() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/output.md");
+        let docs = std::fs::read_to_string(path).expect("docs/output.md");
+        let section = &docs[docs
+            .find("### `<response>.csv`")
+            .expect("the response section")..];
+        for c in RESPONSE_COLUMNS {
+            let row = format!("| `{}` | {} |", c.name, c.unit);
+            assert!(section.contains(&row), "docs/output.md has no row `{row}`");
+        }
+    }
+
+    /// The header holds the columns the issue asks for, a peak per output dof in their order,
+    /// and a row a field per header, each of its column's kind.
+    #[test]
+    fn a_row_has_a_field_per_header_of_its_columns_kind() {
+        let context = ResponseContext {
+            curve: 2,
+            output_dofs: &[4, 1],
+        };
+        assert_eq!(
+            response_csv_header(&context).join(","),
+            "curve,index,frequency_rad_s,frequency_hz,force_amplitude,peak_x4,peak_x1,harmonic_amplitude,phase_lag_rad,stable,max_floquet_modulus,relative_residual,iterations,integration_steps"
+        );
+        let p = ResponsePoint {
+            index: 3,
+            frequency: std::f64::consts::TAU,
+            force_amplitude: 0.5,
+            z0: vec![0.0; 4],
+            peaks: vec![0.25, 0.125],
+            harmonic_amplitude: 0.2,
+            phase_lag: 1.5,
+            multipliers: vec![],
+            max_floquet_modulus: 1.5,
+            stable: false,
+            relative_residual: 1e-10,
+            iterations: 2,
+            step: 0.01,
+            integration_steps: 40,
+            unknowns: vec![],
+            tangent: vec![],
+        };
+        assert_eq!(
+            response_csv_record(&p, &context).join(","),
+            "2,3,6.283185307179586,1,0.5,0.25,0.125,0.2,1.5,false,1.5,1e-10,2,40"
+        );
+        for c in RESPONSE_COLUMNS {
+            for v in c.values(&p, &context) {
+                let fits = matches!(
+                    (c.kind, &v),
+                    (Kind::Float, Value::Float(_) | Value::Empty)
+                        | (Kind::Integer, Value::Integer(_))
+                        | (Kind::Bool, Value::Bool(_))
+                );
+                assert!(fits, "column {} is {:?} but has {v:?}", c.name, c.kind);
+            }
+        }
+    }
+}
