@@ -108,3 +108,33 @@ fn a_bad_response_is_one_line_and_writes_nothing() {
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Ctrl-C during a response stops its curve at the next point and skips the others: every
+/// point computed is in the CSV and in the JSON (a valid document), the summary says so and
+/// the exit code is 130.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_response_keeps_every_point() {
+    let dir = scratch("interrupt-response");
+    let job = write(
+        &dir,
+        "job.toml",
+        "[model]\nfamily = \"duffing\"\ndamping = { rayleigh = [0.02, 0.0] }\n[[response]]\nname = \"slow\"\nforce = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 0.5\nfrequency_end = 3.5\namplitudes = [0.05, 0.1]\nmax_step = 0.0002\ninitial_step = 0.0002\n",
+    );
+    let out = dir.join("out");
+    let child = common::spawn(&["run", &job, "--out", out.to_str().unwrap(), "--quiet"]);
+    let csv = out.join("slow.csv");
+    common::wait_for_rows(&csv, 20);
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let output = child.wait_with_output().unwrap();
+    assert_eq!(output.status.code(), Some(130));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("not started (interrupted)"), "{stdout}");
+    let rows = common::csv_rows(&csv);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("slow.json")).unwrap()).unwrap();
+    assert_eq!(json["points"].as_array().unwrap().len(), rows);
+    assert_eq!(json["curves"][0]["stop_reason"], "interrupted");
+    assert!(rows >= 20 && rows < 10_000, "{rows}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

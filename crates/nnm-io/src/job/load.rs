@@ -200,13 +200,10 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
             settings,
         });
     }
-    let fixed = match &file.model.fixed_dofs {
-        Some(dofs) => Some(
-            nnm::model::FixedDofs::new(structure.dofs() + dofs.len(), dofs)
-                .expect("checked when the model was built"),
-        ),
-        None => None,
-    };
+    let fixed = file.model.fixed_dofs.as_ref().map(|dofs| {
+        nnm::model::FixedDofs::new(structure.dofs() + dofs.len(), dofs)
+            .expect("checked when the model was built")
+    });
     let damping = match &file.model.damping {
         Some(spec) => Some(
             damping_matrix(spec, &structure, fixed.as_ref(), base)

@@ -484,9 +484,11 @@ fn read_vector(file: &Path) -> Result<Vec<f64>, String> {
 
 /// The settings checked as a branch's are (the same ranges and messages).
 fn check_settings(settings: &ResponseSettings) -> Result<(), String> {
-    let mut branch = Settings::default();
-    branch.continuation = settings.continuation.clone();
-    branch.integration = settings.integration.clone();
+    let mut branch = Settings {
+        continuation: settings.continuation.clone(),
+        integration: settings.integration.clone(),
+        ..Settings::default()
+    };
     branch.limits.max_points = settings.max_points;
     branch.validate().map_err(|e| e.to_string())?;
     if settings.samples < 8 {
