@@ -9,6 +9,7 @@ mod interrupt;
 mod modes;
 mod out_dir;
 mod progress;
+mod response;
 mod run;
 mod study;
 

@@ -14,14 +14,15 @@ use crate::compute::{NotStarted, Outcome, compute_all, failures, print_summary, 
 use crate::exit::Unfinished;
 use crate::fep;
 use crate::out_dir::{OutDir, foreign_branches};
+use crate::response;
 
 /// Computes every branch of the job file `job_path` into `out` (docs/output.md), on `threads`
 /// worker threads (default one per core).
 pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool) -> Result<()> {
     let job = load_job(job_path)?;
-    if job.branches.is_empty() {
+    if job.branches.is_empty() && job.responses.is_empty() {
         bail!(
-            "{}: the job has no [[branch]] to compute",
+            "{}: the job has no [[branch]] or [[response]] to compute",
             job_path.display()
         );
     }
@@ -37,17 +38,28 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     write_modes_csv(&out.join("modes.csv"), &modes)?;
     let clock = Instant::now();
     let outcomes = compute_all(&job.structure, requests, out, threads, quiet)?;
-    fep::plot(&outcomes, &modes, &out.join("fep"), "Frequency-energy plot")?;
-    fep::amplitude_plot(&outcomes, &modes, &out.join("amplitude"))?;
+    if !outcomes.is_empty() {
+        fep::plot(&outcomes, &modes, &out.join("fep"), "Frequency-energy plot")?;
+        fep::amplitude_plot(&outcomes, &modes, &out.join("amplitude"))?;
+    }
+    let curves = match &job.damping {
+        Some(damping) if !job.responses.is_empty() => {
+            response::run_responses(&job.structure, damping, &job.responses, out)?
+        }
+        _ => Vec::new(),
+    };
     let early = stopped_early(&outcomes);
-    let verdict = unfinished(&outcomes, &early);
+    let verdict = unfinished(&outcomes, &early).and(curves_verdict(&curves));
     // Quiet means errors only: nothing on a successful run. When a branch failed, stopped
     // early or was interrupted, the summary says which, beside the `error: ...` line.
     if !quiet {
         crate::progress::separate();
     }
     if !quiet || verdict.is_err() {
-        print_summary(&outcomes, &modes);
+        if !outcomes.is_empty() {
+            print_summary(&outcomes, &modes);
+        }
+        response::print_summary(&curves);
         println!(
             "wall time {:.2} s; results in {}{}",
             clock.elapsed().as_secs_f64(),
@@ -92,6 +104,38 @@ fn unfinished(outcomes: &[Outcome], early: &[String]) -> Result<()> {
             "{} of {} branches stopped before their limits ({}); their points are written",
             early.len(),
             outcomes.len(),
+            early.join("; ")
+        ))
+        .into());
+    }
+    Ok(())
+}
+
+/// The responses' verdict, as [`unfinished`]'s for branches: interrupted, a curve that could
+/// not start, a curve whose continuation failed part-way (its points are written).
+fn curves_verdict(curves: &[response::CurveOutcome]) -> Result<()> {
+    let (interrupted, failed, early) = response::unfinished(curves);
+    if interrupted > 0 {
+        return Err(Unfinished::Interrupted(format!(
+            "interrupted: {} of {} response curves finished; the summary and files hold what was computed",
+            curves.len() - interrupted,
+            curves.len()
+        ))
+        .into());
+    }
+    if !failed.is_empty() {
+        bail!(
+            "{} of {} response curves failed ({})",
+            failed.len(),
+            curves.len(),
+            failed.join("; ")
+        );
+    }
+    if !early.is_empty() {
+        return Err(Unfinished::StoppedEarly(format!(
+            "{} of {} response curves stopped before the end of their sweep ({}); their points are written",
+            early.len(),
+            curves.len(),
             early.join("; ")
         ))
         .into());

@@ -1,4 +1,5 @@
-//! Job files (TOML, docs/job-files.md): the model, and the branches to compute.
+//! Job files (TOML, docs/job-files.md): the model, and the branches and forced responses to
+//! compute.
 //!
 //! ```toml
 //! [model]
@@ -31,7 +32,8 @@
 //! (reading, overrides, the order of the checks), `model` (a family or a general model),
 //! `families` (the built-in families, one enum over their parameter structs), `elements`
 //! (nonlinear elements), `matrices` (matrix rows and files), `branch` (a branch's mode and its
-//! settings merged over `[settings]`).
+//! settings merged over `[settings]`), `response` (damping, and a forced response's force,
+//! curves and settings).
 
 use std::path::PathBuf;
 
@@ -48,6 +50,7 @@ mod families;
 mod load;
 mod matrices;
 mod model;
+mod response;
 mod schema;
 
 pub use branch::{
@@ -57,7 +60,11 @@ pub use elements::{Element, spring};
 pub use families::{Family, family_defaults, family_names, family_parameter_names};
 pub use load::{MAX_BRANCH_NAME, load_job, load_job_with, parse_job};
 pub use model::{general_model, model_from_table};
-pub use schema::EventStart;
+pub use response::{
+    AMPLITUDE_START_RATIO, RESPONSE_KEYS, RESPONSE_SETTINGS_KEYS, ResponseBody, ResponseJob,
+    damping_matrix, response_body,
+};
+pub use schema::{DampingSpec, EventStart};
 
 /// Why a job file was rejected.
 #[derive(Debug, thiserror::Error)]
@@ -92,6 +99,10 @@ pub struct Job {
     pub branches: Vec<BranchJob>,
     /// The `[settings]` section alone (what a branch gets when it sets nothing itself).
     pub default_settings: Settings,
+    /// `C` of `[model] damping`, after `fixed_dofs`, checked symmetric positive semi-definite.
+    pub damping: Option<nnm::model::Matrix>,
+    /// The forced responses (`[[response]]`), in the order of the file.
+    pub responses: Vec<ResponseJob>,
 }
 
 /// One branch to compute.

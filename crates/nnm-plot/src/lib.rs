@@ -29,11 +29,13 @@ mod line;
 mod occupancy;
 mod page;
 mod panel;
+mod response;
 mod style;
 
 pub use fep::{CurveLabels, FrequencyEnergyPlot, Series, SeriesPoint};
 pub use grid::PlotGrid;
 pub use line::{Line, LinePlot};
+pub use response::{ResponsePlot, ResponseSeries};
 
 /// The palette colour of curve `i` of `n` (what a curve without `color` gets), for a caller
 /// that draws one branch as several lines of one colour.

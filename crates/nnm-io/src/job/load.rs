@@ -9,10 +9,11 @@ use nnm::MechanicalSystem;
 use super::branch::{BranchBody, branch_body, settings_from};
 use super::families::Family;
 use super::model::{SpecError, build_model, typed_family};
+use super::response::{ResponseJob, damping_matrix, response_body};
 use super::schema::{EventStart, JobFile, from_table};
 use super::{BranchJob, Job, JobError};
 use crate::error::io_reason;
-use crate::output::{BRANCH_FILE_SUFFIXES, RUN_FILES, branch_files};
+use crate::output::{BRANCH_FILE_SUFFIXES, RUN_FILES, branch_files, response_files};
 
 /// Reads and validates a job file. Matrix files are resolved relative to the job's folder.
 pub fn load_job(path: &Path) -> Result<Job, JobError> {
@@ -149,14 +150,18 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
             Some(_) => return Err(invalid(context("`name` must be a string"))),
             None => return Err(invalid(context("missing `name`"))),
         };
-        if let Err(why) = check_branch_name(&name) {
+        if let Err(why) = check_name(&name, "branch") {
             return Err(invalid(context(&why)));
         }
         if branches.iter().any(|b: &BranchJob| b.name == name) {
             return Err(invalid(format!("duplicate branch name `{name}`")));
         }
         check_name_length(&name).map_err(|m| invalid(context(&m)))?;
-        if let Some(m) = file_collision(&name, &branches) {
+        let earlier: Vec<(&str, &str)> = branches
+            .iter()
+            .map(|b: &BranchJob| ("branch", b.name.as_str()))
+            .collect();
+        if let Some(m) = file_collision(("branch", &name), &earlier) {
             return Err(invalid(m));
         }
         let from_event: Option<EventStart> = match table.remove("start") {
@@ -195,19 +200,56 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
             settings,
         });
     }
+    let fixed = file.model.fixed_dofs.as_ref().map(|dofs| {
+        nnm::model::FixedDofs::new(structure.dofs() + dofs.len(), dofs)
+            .expect("checked when the model was built")
+    });
+    let damping = match &file.model.damping {
+        Some(spec) => Some(
+            damping_matrix(spec, &structure, fixed.as_ref(), base)
+                .map_err(|m| invalid(format!("[model] damping: {m}")))?,
+        ),
+        None => None,
+    };
+    let mut responses: Vec<ResponseJob> = Vec::new();
+    for (k, mut table) in file.response.into_iter().enumerate() {
+        let context = |what: &str| format!("response {}: {what}", k + 1);
+        let name = match table.remove("name") {
+            Some(toml::Value::String(s)) => s,
+            Some(_) => return Err(invalid(context("`name` must be a string"))),
+            None => return Err(invalid(context("missing `name`"))),
+        };
+        check_name(&name, "response").map_err(|m| invalid(context(&m)))?;
+        if responses.iter().any(|r| r.name == name) {
+            return Err(invalid(format!("duplicate response name `{name}`")));
+        }
+        let earlier: Vec<(&str, &str)> = branches
+            .iter()
+            .map(|b| ("branch", b.name.as_str()))
+            .chain(responses.iter().map(|r| ("response", r.name.as_str())))
+            .collect();
+        if let Some(m) = file_collision(("response", &name), &earlier) {
+            return Err(invalid(m));
+        }
+        let body = response_body(table, &structure, damping.as_ref(), fixed.as_ref(), base)
+            .map_err(|m| invalid(format!("response `{name}`: {m}")))?;
+        responses.push(ResponseJob { name, body });
+    }
     Ok(Job {
         structure,
         family,
         branches,
         default_settings,
+        damping,
+        responses,
     })
 }
 
-/// A branch's name names its files (`NAME.csv`, `NAME.json`, ...): refused, with the rule it
-/// breaks and the characters at fault (none the name may use), when it is empty, `modes`
-/// (the linear modes' file), starts with '.' (a hidden file), or holds a character other than
-/// an ASCII letter, digit, '-', '_' or '.'.
-fn check_branch_name(name: &str) -> Result<(), String> {
+/// A branch's (or response's: `what`) name names its files (`NAME.csv`, `NAME.json`, ...):
+/// refused, with the rule it breaks and the characters at fault (none the name may use), when
+/// it is empty, `modes` (the linear modes' file), starts with '.' (a hidden file), or holds a
+/// character other than an ASCII letter, digit, '-', '_' or '.'.
+fn check_name(name: &str, what: &str) -> Result<(), String> {
     let mut refused: Vec<char> = Vec::new();
     for c in name.chars() {
         if !(c.is_ascii_alphanumeric() || "-_.".contains(c) || refused.contains(&c)) {
@@ -215,19 +257,19 @@ fn check_branch_name(name: &str) -> Result<(), String> {
         }
     }
     if name.is_empty() {
-        Err("`name` is empty; a branch's name names its files".into())
+        Err(format!("`name` is empty; a {what}'s name names its files"))
     } else if name == "modes" {
         Err("name `modes` would overwrite the linear modes' file modes.csv: use a name that is not `modes`".into())
     } else if !refused.is_empty() {
         let listed: Vec<String> = refused.iter().map(|c| format!("{c:?}")).collect();
         Err(format!(
-            "name `{}` holds {}, which a branch name cannot: it names the branch's files, so it may use only ASCII letters, digits, '-', '_' and '.'",
+            "name `{}` holds {}, which a {what} name cannot: it names the {what}'s files, so it may use only ASCII letters, digits, '-', '_' and '.'",
             name.escape_debug(),
             listed.join(", ")
         ))
     } else if name.starts_with('.') {
         Err(format!(
-            "name `{name}` starts with '.', which would hide the branch's files: start it with a letter, a digit, '-' or '_'"
+            "name `{name}` starts with '.', which would hide the {what}'s files: start it with a letter, a digit, '-' or '_'"
         ))
     } else {
         check_name_length(name)
@@ -267,7 +309,7 @@ fn check_name_length(name: &str) -> Result<(), String> {
 /// (`modes.csv`, ...). Names are compared ignoring case: on the file systems of macOS and
 /// Windows `B.csv` is `b.csv`, and a job must not overwrite its own results on the machine
 /// it is copied to.
-fn file_collision(name: &str, earlier: &[BranchJob]) -> Option<String> {
+fn file_collision((kind, name): (&str, &str), earlier: &[(&str, &str)]) -> Option<String> {
     let case_note = |a: &str, b: &str| {
         if a == b {
             String::new()
@@ -275,21 +317,37 @@ fn file_collision(name: &str, earlier: &[BranchJob]) -> Option<String> {
             format!(" ({a} and {b} are one file where names ignore case, as on macOS and Windows)")
         }
     };
-    for file in branch_files(name) {
+    let files = |kind: &str, name: &str| -> Vec<String> {
+        if kind == "branch" {
+            branch_files(name).collect()
+        } else {
+            response_files(name).collect()
+        }
+    };
+    for file in files(kind, name) {
         let same = |other: &str| other.eq_ignore_ascii_case(&file);
         if let Some(run_file) = RUN_FILES.iter().find(|f| same(f)) {
             return Some(format!(
-                "branch `{name}` would write {file} over the run's own {run_file}{}",
+                "{kind} `{name}` would write {file} over the run's own {run_file}{}",
                 case_note(run_file, &file)
             ));
         }
         let theirs = earlier
             .iter()
-            .find_map(|b| Some((b, branch_files(&b.name).find(|f| same(f))?)));
-        if let Some((b, theirs)) = theirs {
+            .find_map(|&(k, b)| Some((k, b, files(k, b).into_iter().find(|f| same(f))?)));
+        if let Some((their_kind, b, theirs)) = theirs {
+            let who = if their_kind == kind {
+                let kinds = if kind == "branch" {
+                    "branches"
+                } else {
+                    "responses"
+                };
+                format!("{kinds} `{b}` and `{name}`")
+            } else {
+                format!("{their_kind} `{b}` and {kind} `{name}`")
+            };
             return Some(format!(
-                "branches `{}` and `{name}` would both write {theirs}{}",
-                b.name,
+                "{who} would both write {theirs}{}",
                 case_note(&theirs, &file)
             ));
         }

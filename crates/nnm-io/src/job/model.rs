@@ -12,7 +12,7 @@ use super::JobError;
 use super::elements::{Element, build_element};
 use super::families::{Family, FamilyError, family_keys, parse};
 use super::matrices::load_matrix;
-use super::schema::{GENERAL_KEYS, MODEL_KEYS, ModelSpec, from_table};
+use super::schema::{COMMON_KEYS, GENERAL_KEYS, MODEL_KEYS, ModelSpec, from_table};
 
 /// Why `[model]` was refused before anything was built.
 #[derive(Debug)]
@@ -52,7 +52,7 @@ pub(super) fn typed_family(
     // Keys that only make sense for some families must not be silently ignored.
     if let Some(key) = MODEL_KEYS[1..]
         .iter()
-        .find(|k| spec.gives(k) && !allowed.contains(k))
+        .find(|k| spec.gives(k) && !allowed.contains(k) && !COMMON_KEYS.contains(k))
     {
         return Err(SpecError::Invalid(format!(
             "[model] key `{key}` does not apply to family `{name}`"

@@ -4,7 +4,7 @@
 use serde::Deserialize;
 use serde::de::{self, DeserializeSeed, MapAccess, Visitor};
 
-/// The whole file: `[model]`, `[settings]`, `[[branch]]`.
+/// The whole file: `[model]`, `[settings]`, `[[branch]]`, `[[response]]`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct JobFile {
@@ -13,13 +13,16 @@ pub(super) struct JobFile {
     pub settings: Option<toml::Table>,
     #[serde(default)]
     pub branch: Vec<toml::Table>,
+    #[serde(default)]
+    pub response: Vec<toml::Table>,
 }
 
 /// Every key of `[model]`, in the order the message about an unknown key lists them:
 /// `family`, the families' parameters, then a general model's ([`GENERAL_KEYS`]). Which
 /// parameters a family takes, their types and defaults are its struct's
-/// (`super::families`); a test checks that this list holds exactly their keys.
-pub(super) const MODEL_KEYS: [&str; 21] = [
+/// (`super::families`); a test checks that this list holds exactly their keys. `damping`
+/// ([`COMMON_KEYS`]) applies to every model.
+pub(super) const MODEL_KEYS: [&str; 22] = [
     "family",
     "sectors",
     "disk_mass",
@@ -41,11 +44,21 @@ pub(super) const MODEL_KEYS: [&str; 21] = [
     "nonlinear",
     "cyclic",
     "fixed_dofs",
+    "damping",
 ];
 
 /// The keys of a general model (no `family`).
-pub(super) const GENERAL_KEYS: [&str; 5] =
-    ["mass", "stiffness", "nonlinear", "cyclic", "fixed_dofs"];
+pub(super) const GENERAL_KEYS: [&str; 6] = [
+    "mass",
+    "stiffness",
+    "nonlinear",
+    "cyclic",
+    "fixed_dofs",
+    "damping",
+];
+
+/// The keys every model takes, a family or a general one: the damping of forced responses.
+pub(super) const COMMON_KEYS: [&str; 1] = ["damping"];
 
 /// `[model]`: a family's name and parameters, or a general model's matrices and elements.
 /// The parameters stay untyped until the family is known (it may come after them), each
@@ -61,6 +74,8 @@ pub(super) struct ModelSpec {
     pub cyclic: Option<CyclicSpec>,
     /// Dofs held at zero (0-based, like an element's `dofs`), removed from the model.
     pub fixed_dofs: Option<Vec<usize>>,
+    /// Viscous damping of forced responses (`[[response]]`).
+    pub damping: Option<DampingSpec>,
 }
 
 /// One family parameter as written: `key = value`, the value's span in the file's text.
@@ -81,6 +96,7 @@ impl ModelSpec {
             "nonlinear" => !self.nonlinear.is_empty(),
             "cyclic" => self.cyclic.is_some(),
             "fixed_dofs" => self.fixed_dofs.is_some(),
+            "damping" => self.damping.is_some(),
             _ => self.parameters.iter().any(|p| p.key == key),
         }
     }
@@ -112,6 +128,7 @@ impl<'de> Visitor<'de> for ModelVisitor {
                 "nonlinear" => spec.nonlinear = map.next_value()?,
                 "cyclic" => spec.cyclic = Some(map.next_value()?),
                 "fixed_dofs" => spec.fixed_dofs = Some(map.next_value()?),
+                "damping" => spec.damping = Some(map.next_value()?),
                 _ => spec.parameters.push(Parameter {
                     key,
                     value: map.next_value()?,
@@ -150,6 +167,19 @@ impl<'de> DeserializeSeed<'de> for ModelKey {
 pub(super) enum MatrixSpec {
     Rows(Vec<Vec<f64>>),
     File { file: String },
+}
+
+/// `[model] damping`: `{ rayleigh = [α, β] }` (`C = αM + βK`), `{ modal = [ζ0, ...] }`
+/// (ratios of the lowest elastic modes), `{ matrix = [[...]] }` or `{ file = "C.mtx" }` (in
+/// the model's full numbering, as `mass` and `stiffness`). Turned into `C` by
+/// [`super::damping_matrix`].
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum DampingSpec {
+    Rayleigh([f64; 2]),
+    Modal(Vec<f64>),
+    Matrix(Vec<Vec<f64>>),
+    File(String),
 }
 
 /// One `[[model.nonlinear]]` element.

@@ -1,6 +1,7 @@
 use super::*;
 use std::path::Path;
 
+use nnm::forced::{ResponseSettings, Sweep};
 use nnm::model::{Matrix, MechanicalSystem, PolynomialSpring, PolynomialTensor};
 use nnm::shooting::{JacobianMethod, PhaseCondition};
 
@@ -816,7 +817,7 @@ fn family_parameter_errors_keep_their_place() {
         ),
         (
             "[model]\nfamily = \"duffing\"\ncubc = 3.0",
-            "job.toml:3:1: unknown field `cubc`, expected one of `family`, `sectors`, `disk_mass`, `blade_mass`, `disk_coupling`, `blade_stiffness`, `cubic`, `blade_stiffness_mistuning`, `natural_frequency`, `elements`, `length`, `width`, `height`, `thickness`, `youngs_modulus`, `density`, `mass`, `stiffness`, `nonlinear`, `cyclic`, `fixed_dofs`",
+            "job.toml:3:1: unknown field `cubc`, expected one of `family`, `sectors`, `disk_mass`, `blade_mass`, `disk_coupling`, `blade_stiffness`, `cubic`, `blade_stiffness_mistuning`, `natural_frequency`, `elements`, `length`, `width`, `height`, `thickness`, `youngs_modulus`, `density`, `mass`, `stiffness`, `nonlinear`, `cyclic`, `fixed_dofs`, `damping`",
         ),
         (
             "[model]\nfamily = \"bladed\"",
@@ -1021,5 +1022,259 @@ fn branches_whose_files_collide_are_refused() {
     assert_eq!(
         error(&job(&[&too_long])),
         "job.toml: branch 1: name `xxxxxxxxxxxxxxxx...` has 245 characters, more than the 244 that leave room for its files' suffixes (`.events.csv`) in a file name"
+    );
+}
+
+/// The Duffing oscillator with damping and one frequency response.
+fn duffing_response(damping: &str, response: &str) -> String {
+    format!(
+        "[model]\nfamily = \"duffing\"\ncubic = 1.0\ndamping = {damping}\n[[response]]\nname = \"frc\"\n{response}\n"
+    )
+}
+
+/// The keys of `[model] damping` and `[[response]]` give the damping matrix, the force shape,
+/// one sweep per force level and the settings, in a job without branches.
+#[test]
+fn responses_parse_into_damping_force_and_sweeps() {
+    let job = parse(&duffing_response(
+        "{ matrix = [[0.02]] }",
+        "force = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 0.5\nfrequency_end = 3.5\namplitudes = [0.05, 0.1]\ntolerance = 1e-9\nmax_step = 0.04",
+    ))
+    .unwrap();
+    assert!(job.branches.is_empty());
+    assert_eq!(job.damping.as_ref().unwrap().get(0, 0), 0.02);
+    let r = &job.responses[0];
+    assert_eq!(r.name, "frc");
+    assert_eq!(r.body.force.cosine, vec![1.0]);
+    assert_eq!(
+        r.body.curves,
+        vec![
+            Sweep::Frequency {
+                from: 0.5,
+                to: 3.5,
+                amplitude: 0.05
+            },
+            Sweep::Frequency {
+                from: 0.5,
+                to: 3.5,
+                amplitude: 0.1
+            },
+        ]
+    );
+    assert_eq!(r.body.output_dofs, vec![0]);
+    assert_eq!(r.body.settings.continuation.tolerance, 1e-9);
+    assert_eq!(r.body.settings.continuation.max_step, 0.04);
+    // Defaults of a response, not of a branch, where nothing is said.
+    assert_eq!(
+        r.body.settings.continuation.initial_step,
+        ResponseSettings::default().continuation.initial_step
+    );
+
+    // Rayleigh: C = αM + βK on the two-DOF model (M = I, K = [[2, -1], [-1, 2]]).
+    let job = parse(
+        "[model]\nfamily = \"two-dof\"\ndamping = { rayleigh = [0.1, 0.01] }\n[[response]]\nname = \"a\"\nforce = { vector = [1.0, 0.5] }\nparameter = \"amplitude\"\nfrequency = 1.2\namplitude_max = 2.0\noutput_dofs = [1]",
+    )
+    .unwrap();
+    let c = job.damping.as_ref().unwrap();
+    let k = job.structure.stiffness();
+    for i in 0..2 {
+        for j in 0..2 {
+            let m = if i == j { 1.0 } else { 0.0 };
+            assert!((c.get(i, j) - (0.1 * m + 0.01 * k.get(i, j))).abs() < 1e-15);
+        }
+    }
+    let r = &job.responses[0].body;
+    assert_eq!(r.force.cosine, vec![1.0, 0.5]);
+    assert_eq!(
+        r.curves,
+        vec![Sweep::Amplitude {
+            from: 2.0 * AMPLITUDE_START_RATIO,
+            to: 2.0,
+            frequency: 1.2
+        }]
+    );
+    assert_eq!(r.output_dofs, vec![1]);
+}
+
+/// Forced dofs and force vectors are in the full numbering, like springs' dofs: dof 2 of a
+/// three-dof chain with dof 0 fixed is reduced dof 1; `output_dofs` are after `fixed_dofs`.
+#[test]
+fn forced_dofs_follow_fixed_dofs() {
+    let model = "[model]\nmass = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]\nstiffness = [[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]]\nfixed_dofs = [0]\n";
+    let job = parse(&format!(
+        "{model}damping = {{ matrix = [[9.0, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.2]] }}\n[[response]]\nname = \"r\"\nforce = {{ dofs = [2], amplitude = 1.0 }}\nfrequency_start = 0.1\nfrequency_end = 1.0\n"
+    ))
+    .unwrap();
+    let c = job.damping.as_ref().unwrap();
+    assert_eq!((c.nrows(), c.get(0, 0), c.get(1, 1)), (2, 0.1, 0.2));
+    assert_eq!(job.responses[0].body.force.cosine, vec![0.0, 1.0]);
+    assert_eq!(job.responses[0].body.output_dofs, vec![1]);
+    let job = parse(&format!(
+        "{model}damping = {{ rayleigh = [0.0, 0.01] }}\n[[response]]\nname = \"r\"\nforce = {{ vector = [0.0, 3.0, 4.0] }}\nfrequency_start = 0.1\nfrequency_end = 1.0\n"
+    ))
+    .unwrap();
+    assert_eq!(job.responses[0].body.force.cosine, vec![3.0, 4.0]);
+    let fixed = |force: &str| {
+        error(&format!(
+            "{model}damping = {{ rayleigh = [0.0, 0.01] }}\n[[response]]\nname = \"r\"\nforce = {force}\nfrequency_start = 0.1\nfrequency_end = 1.0\n"
+        ))
+    };
+    assert_eq!(
+        fixed("{ dofs = [0], amplitude = 1.0 }"),
+        "job.toml: response `r`: forced dof 0 is fixed (`fixed_dofs`): a support takes the force"
+    );
+    assert_eq!(
+        fixed("{ dofs = [3], amplitude = 1.0 }"),
+        "job.toml: response `r`: forced dof 3 is out of range (the model has 3 dofs)"
+    );
+    assert_eq!(
+        fixed("{ vector = [1.0, 0.0, 0.0] }"),
+        "job.toml: response `r`: the force vector has 1 at dof 0, which is fixed (`fixed_dofs`): a support takes the force"
+    );
+}
+
+/// Every item of the bad-input list is one line naming what is wrong, before anything
+/// is computed.
+#[test]
+fn bad_responses_are_refused_with_one_line() {
+    let force =
+        "force = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 0.5\nfrequency_end = 3.5";
+    let cases = [
+        (
+            duffing_response("{ rayleigh = [-0.1, 0.0] }", force),
+            "job.toml: [model] damping: damping rayleigh α must be non-negative and finite, got -0.1",
+        ),
+        (
+            duffing_response("{ rayleigh = [0.0, nan] }", force),
+            "job.toml: [model] damping: damping rayleigh β must be non-negative and finite, got NaN",
+        ),
+        (
+            duffing_response("{ modal = [0.01, 0.02] }", force),
+            "job.toml: [model] damping: 2 modal damping ratios given, the model has 1 elastic modes",
+        ),
+        (
+            duffing_response("{ matrix = [[-0.02]] }", force),
+            "job.toml: [model] damping: the damping matrix is not positive semi-definite (eigenvalue -0.02)",
+        ),
+        (
+            duffing_response("{ matrix = [[0.02, 0.0], [0.0, 0.02]] }", force),
+            "job.toml: [model] damping: the damping matrix is 2x2, the model has 1 dofs",
+        ),
+        (
+            duffing_response("{ viscous = 1.0 }", force),
+            "job.toml:4:13: unknown variant `viscous`, expected one of `rayleigh`, `modal`, `matrix`, `file`",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 3.5\nfrequency_end = 0.5",
+            ),
+            "job.toml: response `frc`: frequency_end must exceed frequency_start (3.5), got 0.5",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 0.0\nfrequency_end = 0.5",
+            ),
+            "job.toml: response `frc`: frequency_start must be positive, got 0",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { dofs = [0], amplitude = 0.0 }\nfrequency_start = 0.5\nfrequency_end = 3.5",
+            ),
+            "job.toml: response `frc`: the force amplitude must be non-zero, got 0",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { vector = [0.0] }\nfrequency_start = 0.5\nfrequency_end = 3.5",
+            ),
+            "job.toml: response `frc`: the force is zero",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { engine_order = 1, amplitude = 0.1, sector_dof = 0 }\nfrequency_start = 0.5\nfrequency_end = 3.5",
+            ),
+            "job.toml: response `frc`: engine-order excitation needs a cyclic model (a bladed disk)",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { dofs = [1], amplitude = 0.1 }\nfrequency_start = 0.5\nfrequency_end = 3.5",
+            ),
+            "job.toml: response `frc`: forced dof 1 is out of range (the model has 1 dofs)",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { dofs = [0] }\nfrequency_start = 0.5\nfrequency_end = 3.5",
+            ),
+            "job.toml: response `frc`: the force needs an `amplitude` (or give the response `amplitudes = [...]`)",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 0.5\nfrequency_end = 3.5\nenergy_max = 1.0",
+            ),
+            "job.toml: response `frc`: unknown field `energy_max`, expected one of `force`, `frequency_start`, `frequency_end`, `amplitudes`, `parameter`, `frequency`, `amplitude_max`, `amplitude_start`, `output_dofs`, `tolerance`, `initial_step`, `min_step`, `max_step`, `max_iterations`, `target_iterations`, `max_turn_angle`, `integrator`, `integration_factor`, `events`, `max_points`, `samples`",
+        ),
+        (
+            duffing_response(
+                "{ matrix = [[0.02]] }",
+                "force = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 0.5\nfrequency_end = 3.5\ntolerance = 1e-20",
+            ),
+            "job.toml: response `frc`: invalid setting: tolerance 1e-20 is below 1e-14, which double precision cannot meet: the periodicity residual of an integrated orbit carries round-off of ~1e-15 of the state",
+        ),
+        (
+            "[model]\nfamily = \"duffing\"\n[[response]]\nname = \"frc\"\nforce = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 0.5\nfrequency_end = 3.5".to_string(),
+            "job.toml: response `frc`: a forced response needs `[model] damping` (e.g. `damping = { rayleigh = [0.01, 0.0] }`; `{ rayleigh = [0.0, 0.0] }` for none)",
+        ),
+    ];
+    for (text, expected) in cases {
+        assert_eq!(error(&text), expected, "{text}");
+    }
+    // A damping matrix that is not symmetric names the entry.
+    let e = error(
+        &duffing_response("{ matrix = [[1.0]] }", force)
+            .replace(
+                "family = \"duffing\"\ncubic = 1.0",
+                "mass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = [[2.0, -1.0], [-1.0, 2.0]]",
+            )
+            .replace("[[1.0]]", "[[1.0, 0.5], [0.0, 1.0]]"),
+    );
+    assert!(
+        e.starts_with("job.toml: [model] damping: ")
+            && e.contains("symmetric")
+            && e.contains("(0, 1)"),
+        "{e}"
+    );
+    // Engine order beyond N/2 on the bladed disk (30 sectors).
+    let e = error(
+        "[model]\nfamily = \"bladed-disk\"\ndamping = { rayleigh = [0.0, 0.001] }\n[[response]]\nname = \"eo\"\nforce = { engine_order = 16, amplitude = 0.1, sector_dof = 1 }\nfrequency_start = 0.5\nfrequency_end = 1.5",
+    );
+    assert_eq!(
+        e,
+        "job.toml: response `eo`: engine order 16 is beyond N/2 = 15 (the model has 30 sectors)"
+    );
+}
+
+/// A response's files must not be a branch's, another response's or the run's.
+#[test]
+fn response_files_do_not_collide() {
+    let job = |names: (&str, &str)| {
+        format!(
+            "[model]\nfamily = \"duffing\"\ndamping = {{ rayleigh = [0.0, 0.02] }}\n[[branch]]\nname = \"{}\"\nmode = 0\nenergy_max = 1.0\n[[response]]\nname = \"{}\"\nforce = {{ dofs = [0], amplitude = 0.1 }}\nfrequency_start = 0.5\nfrequency_end = 3.5\n",
+            names.0, names.1
+        )
+    };
+    assert_eq!(
+        error(&job(("b", "B"))),
+        "job.toml: branch `b` and response `B` would both write b.csv (b.csv and B.csv are one file where names ignore case, as on macOS and Windows)"
+    );
+    assert_eq!(
+        error(&job(("b", "fep"))),
+        "job.toml: response `fep` would write fep.png over the run's own fep.png"
     );
 }

@@ -132,10 +132,11 @@ fn integrator<'s, 'a, S: MechanicalSystem + ?Sized>(
     (method, integrator)
 }
 
-/// Checks a sweep before anything is computed.
+/// Checks a sweep before anything is computed ([`forced_response`] calls it; front ends call
+/// it early, to refuse a job before any curve runs).
 // Negated comparisons deliberate: NaN must fail.
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
-fn check_sweep(sweep: &Sweep) -> Result<(), ResponseError> {
+pub fn check_sweep(sweep: &Sweep) -> Result<(), ResponseError> {
     let invalid = |s: String| Err(ResponseError::Invalid(s));
     let number = crate::number::Number;
     match *sweep {

@@ -18,7 +18,8 @@ mod linear;
 mod problem;
 
 pub use curve::{
-    ResponseCurve, ResponseError, ResponseItem, ResponseSettings, ResponseStop, forced_response,
+    ResponseCurve, ResponseError, ResponseItem, ResponseSettings, ResponseStop, check_sweep,
+    forced_response,
 };
 pub use events::{ResponseEvent, ResponseEventKind, ResponseEvents};
 pub use force::{Force, ForceError};

@@ -1,0 +1,276 @@
+//! `nnm run`'s forced responses (`[[response]]`): every curve computed, written point by point
+//! as it comes (`<name>.csv`, `.events.csv`, `.json`), its figure, and a summary line per curve.
+//! Ctrl-C stops the curve in progress at its next point and skips the rest.
+
+use std::ops::ControlFlow;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Result;
+use nnm::continuation::Item;
+use nnm::forced::{
+    ResponseCurve, ResponseEventKind, ResponseItem, ResponseStop, Sweep, forced_response,
+};
+use nnm::model::{ForcedSystem, Matrix, Structure};
+use nnm_io::job::ResponseJob;
+use nnm_io::output::{CurveRecord, OutputError, ResponseWriter, stop_name};
+use nnm_plot::{Marker, MarkerShape, ResponsePlot, ResponseSeries};
+
+use crate::interrupt;
+use crate::progress::say;
+
+/// How one curve went.
+pub struct CurveOutcome {
+    pub response: String,
+    pub curve: usize,
+    pub sweep: Sweep,
+    /// The curve, or why it could not start (`None` when an interrupt came before it).
+    pub result: Option<Result<ResponseCurve, String>>,
+    pub seconds: f64,
+}
+
+/// Computes every response of a job into `out`, in the order of the file.
+pub fn run_responses(
+    structure: &Structure,
+    damping: &Matrix,
+    responses: &[ResponseJob],
+    out: &Path,
+) -> Result<Vec<CurveOutcome>> {
+    let mut outcomes = Vec::new();
+    for response in responses {
+        let body = &response.body;
+        let system = ForcedSystem::new(structure, damping, body.force.clone())?;
+        let mut writer = interrupt::writing(|| {
+            ResponseWriter::create(out, &response.name, &body.output_dofs, &body.force)
+        })?;
+        let mut curves: Vec<(Sweep, ResponseCurve)> = Vec::new();
+        for (k, sweep) in body.curves.iter().enumerate() {
+            if interrupt::requested() {
+                outcomes.push(CurveOutcome {
+                    response: response.name.clone(),
+                    curve: k,
+                    sweep: *sweep,
+                    result: None,
+                    seconds: 0.0,
+                });
+                continue;
+            }
+            let started = Instant::now();
+            let mut error: Option<OutputError> = None;
+            let name = &response.name;
+            let observer = |item: &ResponseItem| {
+                let written = interrupt::writing(|| match item {
+                    Item::Point(p) => writer.write_point(k, p),
+                    Item::Event(e) => writer.write_event(k, e),
+                });
+                if let Err(e) = written {
+                    error = Some(e);
+                    return ControlFlow::Break(());
+                }
+                match item {
+                    Item::Point(p) => say!(
+                        "[{name}] curve {k} point {:>3}  Ω = {:.6} rad/s  a = {:.4e}  peak = {:.6e}  {}  |mu|max = {:.6}",
+                        p.index,
+                        p.frequency,
+                        p.force_amplitude,
+                        p.peaks.first().copied().unwrap_or(f64::NAN),
+                        if p.stable { "stable  " } else { "unstable" },
+                        p.max_floquet_modulus
+                    ),
+                    Item::Event(e) => say!(
+                        "[{name}] curve {k} event: {} at Ω = {:.9} rad/s, a = {:.6e}, peak = {:.6e}, multiplier ({:.6}, {:.6})",
+                        e.kind.name(),
+                        e.point.frequency,
+                        e.point.force_amplitude,
+                        e.point.peaks.first().copied().unwrap_or(f64::NAN),
+                        e.critical_multiplier.0,
+                        e.critical_multiplier.1
+                    ),
+                }
+                if interrupt::requested() {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            };
+            let result =
+                forced_response(&system, *sweep, &body.output_dofs, &body.settings, observer);
+            if let Some(e) = error {
+                return Err(e.into());
+            }
+            let seconds = started.elapsed().as_secs_f64();
+            let result = match result {
+                Ok(curve) => {
+                    let record = CurveRecord::finished(k, sweep, &curve, seconds);
+                    interrupt::writing(|| writer.end_curve(record))?;
+                    say!(
+                        "[{name}] curve {k} done: {} points, {} events, {}",
+                        curve.points.len(),
+                        curve.events.len(),
+                        stop_name(&curve.stop)
+                    );
+                    curves.push((*sweep, curve.clone()));
+                    Ok(curve)
+                }
+                Err(e) => {
+                    let reason = e.to_string();
+                    let record = CurveRecord::failed(k, sweep, &format!("failed: {reason}"));
+                    interrupt::writing(|| writer.end_curve(record))?;
+                    Err(reason)
+                }
+            };
+            outcomes.push(CurveOutcome {
+                response: response.name.clone(),
+                curve: k,
+                sweep: *sweep,
+                result: Some(result),
+                seconds,
+            });
+        }
+        interrupt::writing(|| writer.finish())?;
+        plot(
+            &response.name,
+            body.output_dofs.first().copied(),
+            &curves,
+            out,
+        )?;
+    }
+    Ok(outcomes)
+}
+
+/// `<name>.png` and `.svg`: the peak of the first output dof against the frequency (or the
+/// force amplitude), a curve per level, unstable dashed, folds marked.
+fn plot(
+    name: &str,
+    dof: Option<usize>,
+    curves: &[(Sweep, ResponseCurve)],
+    out: &Path,
+) -> Result<()> {
+    let Some(dof) = dof else { return Ok(()) };
+    if curves.iter().all(|(_, c)| c.points.is_empty()) {
+        return Ok(());
+    }
+    let in_amplitude = matches!(curves[0].0, Sweep::Amplitude { .. });
+    let x = |p: &nnm::forced::ResponsePoint| {
+        if in_amplitude {
+            p.force_amplitude
+        } else {
+            p.frequency
+        }
+    };
+    let series = curves
+        .iter()
+        .map(|(sweep, c)| ResponseSeries {
+            label: match *sweep {
+                Sweep::Frequency { amplitude, .. } => format!("a = {amplitude}"),
+                Sweep::Amplitude { frequency, .. } => format!("Ω = {frequency} rad/s"),
+            },
+            points: c
+                .points
+                .iter()
+                .map(|p| (x(p), p.peaks.first().copied().unwrap_or(f64::NAN), p.stable))
+                .collect(),
+        })
+        .collect();
+    let markers = curves
+        .iter()
+        .flat_map(|(_, c)| &c.events)
+        .map(|e| Marker {
+            x: x(&e.point),
+            y: e.point.peaks.first().copied().unwrap_or(f64::NAN),
+            label: String::new(),
+            shape: if e.kind == ResponseEventKind::Fold {
+                MarkerShape::Dot
+            } else {
+                MarkerShape::Diamond
+            },
+        })
+        .collect();
+    ResponsePlot {
+        title: format!("Forced response `{name}`"),
+        x_label: if in_amplitude {
+            "force amplitude".into()
+        } else {
+            "forcing frequency (rad/s)".into()
+        },
+        y_label: format!("peak of x{dof}"),
+        series,
+        markers,
+        marker_key: format!(
+            "{} fold   {} bifurcation",
+            MarkerShape::Dot.glyph(),
+            MarkerShape::Diamond.glyph()
+        ),
+    }
+    .write(&out.join(name))?;
+    Ok(())
+}
+
+/// One line per curve on stdout: points, folds, largest peak, time, how it ended.
+pub fn print_summary(outcomes: &[CurveOutcome]) {
+    if outcomes.is_empty() {
+        return;
+    }
+    println!(
+        "{:<16} {:>5} {:>12} {:>7} {:>5} {:>12} {:>8}  stop",
+        "response", "curve", "level", "points", "folds", "peak_max", "time_s"
+    );
+    for o in outcomes {
+        let level = match o.sweep {
+            Sweep::Frequency { amplitude, .. } => format!("a={amplitude}"),
+            Sweep::Amplitude { frequency, .. } => format!("Ω={frequency}"),
+        };
+        match &o.result {
+            None => println!(
+                "{:<16} {:>5} {:>12} not started (interrupted)",
+                o.response, o.curve, level
+            ),
+            Some(Err(e)) => println!(
+                "{:<16} {:>5} {:>12} failed: {e}",
+                o.response, o.curve, level
+            ),
+            Some(Ok(c)) => {
+                let folds = c
+                    .events
+                    .iter()
+                    .filter(|e| e.kind == ResponseEventKind::Fold)
+                    .count();
+                let peak = c
+                    .points
+                    .iter()
+                    .filter_map(|p| p.peaks.first().copied())
+                    .fold(f64::NAN, f64::max);
+                println!(
+                    "{:<16} {:>5} {:>12} {:>7} {:>5} {:>12.6e} {:>8.2}  {}",
+                    o.response,
+                    o.curve,
+                    level,
+                    c.points.len(),
+                    folds,
+                    peak,
+                    o.seconds,
+                    stop_name(&c.stop)
+                );
+            }
+        }
+    }
+}
+
+/// `(interrupted, failed, stopped early)` descriptions of the curves that did not finish.
+pub fn unfinished(outcomes: &[CurveOutcome]) -> (usize, Vec<String>, Vec<String>) {
+    let mut interrupted = 0;
+    let (mut failed, mut early) = (Vec::new(), Vec::new());
+    for o in outcomes {
+        let who = format!("{} curve {}", o.response, o.curve);
+        match &o.result {
+            None => interrupted += 1,
+            Some(Err(e)) => failed.push(format!("{who}: {e}")),
+            Some(Ok(c)) => match &c.stop {
+                ResponseStop::Stopped => interrupted += 1,
+                ResponseStop::Failed(why) => early.push(format!("{who}: {why}")),
+                _ => {}
+            },
+        }
+    }
+    (interrupted, failed, early)
+}
