@@ -5,6 +5,8 @@ fn main() {
     let which = std::env::args().nth(1).unwrap_or_default();
     let mut settings = ResponseSettings::default();
     if std::env::var("NOEV").is_ok() { settings.events = false; }
+    if let Ok(v) = std::env::var("MAXSTEP") { settings.continuation.max_step = v.parse().unwrap(); }
+    if let Ok(v) = std::env::var("SAMPLES") { settings.samples = v.parse().unwrap(); }
     if which != "beam" {
     let disk = BladedDisk::default().build().unwrap();
     let modes = nnm::modes::linear_modes(&disk).unwrap();

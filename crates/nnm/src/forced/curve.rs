@@ -25,8 +25,9 @@ use super::problem::{ForcedShooting, ForcedStats, ResponsePoint, Scales, Sweep};
 #[serde(default)]
 pub struct ResponseSettings {
     /// The continuation; steps are absolute in the scaled unknowns (forced/problem.rs), so
-    /// the defaults differ from a branch's: first step 0.02, largest 0.05, so that a curve
-    /// of a few scaled units gets some fifty points.
+    /// the defaults differ from a branch's: first step 0.02, largest 0.1, so that a curve of
+    /// a few scaled units gets some fifty points (the turning-angle limit refines peaks and
+    /// folds).
     #[serde(flatten)]
     pub continuation: ContinuationSettings,
     /// The integration method and its accuracy.
@@ -36,7 +37,9 @@ pub struct ResponseSettings {
     pub events: bool,
     /// Largest number of points (default 2000).
     pub max_points: usize,
-    /// Samples of a period for the peaks and the first harmonic (default 128).
+    /// Samples of a period for the peaks and the first harmonic (default 32: the first
+    /// harmonic is exact for motions without harmonics above the 30th, and each peak is
+    /// refined between samples, docs/method.md eq. (87)).
     pub samples: usize,
 }
 
@@ -45,13 +48,13 @@ impl Default for ResponseSettings {
         Self {
             continuation: ContinuationSettings {
                 initial_step: 0.02,
-                max_step: 0.05,
+                max_step: 0.1,
                 ..ContinuationSettings::default()
             },
             integration: IntegrationSettings::default(),
             events: true,
             max_points: 2000,
-            samples: 128,
+            samples: 32,
         }
     }
 }

@@ -15,9 +15,11 @@
 //! the stability edge of the stiffest mode and its multiplier comes out wrong.
 
 use super::{Drive, ForcedFlow, ForcedIntegrator, check_forced_request, phase_field};
+use crate::integrate::kernels::{Terms, linear_combination};
 use crate::integrate::tableau::{ErrorEstimate, Tableau};
 use crate::integrate::{IntegrationError, IntegrationStats, Tolerances};
-use crate::model::{Block, BlockMut, ForcedSystem, MechanicalSystem};
+use crate::linalg;
+use crate::model::{ExplicitForm, ForcedSystem, MechanicalSystem};
 
 /// Floor of the sensitivities' relative tolerance in the step control: the multipliers'
 /// accuracy needs no more (the free-motion integrator's choice, integrate/runge_kutta.rs).
@@ -27,8 +29,17 @@ const MAX_GROWTH: f64 = 6.0;
 const MAX_SHRINK: f64 = 0.2;
 
 /// The explicit forced integrator of `system` by an embedded pair (DOP853 by default).
+///
+/// The sensitivities are stored interleaved (the directions of one state index contiguous,
+/// `Ψ[i·k + c]`), as the free-motion integrator stores them: the tangent and the damping,
+/// assembled as `−M⁻¹K_t` and `−M⁻¹C` in compressed rows when the mass is diagonal, then
+/// combine whole contiguous rows, and the stage combinations are single fused passes
+/// (integrate/kernels.rs).
 pub struct ForcedRungeKutta<'s, 'a, S: MechanicalSystem + ?Sized> {
     system: &'s ForcedSystem<'a, S>,
+    form: ExplicitForm<'a, S>,
+    /// `−M⁻¹C` in compressed rows (`row_start`, `col`, values) with a diagonal mass.
+    damping_rate: Option<(Vec<usize>, Vec<usize>, Vec<f64>)>,
     tableau: &'static Tableau,
     /// Local error tolerances of the step control.
     pub tolerances: Tolerances,
@@ -36,14 +47,27 @@ pub struct ForcedRungeKutta<'s, 'a, S: MechanicalSystem + ?Sized> {
     pub max_steps: usize,
     /// The first step of the last integration, to start the next one with.
     first_step: Option<f64>,
+    ws: Workspace,
 }
 
-/// Stage data of one step.
-struct Stages {
+#[derive(Default)]
+struct Workspace {
     /// `K_i`, `stages × 2n`.
     motion: Vec<f64>,
-    /// `L_i`, `stages × 2n·cols`.
+    /// `L_i`, `stages × 2n·k`, interleaved.
     sensitivity: Vec<f64>,
+    y: Vec<f64>,
+    psi: Vec<f64>,
+    /// `A_v Ψ_v` of a stage (`n·k`).
+    damped: Vec<f64>,
+    /// `M⁻¹F(τ)` (`n`).
+    force: Vec<f64>,
+    /// The error combinations.
+    err_a: Vec<f64>,
+    err_b: Vec<f64>,
+    /// Column-major copies for the unassembled fallback.
+    columns_in: Vec<f64>,
+    columns_out: Vec<f64>,
 }
 
 impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
@@ -53,17 +77,57 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
         tableau: &'static Tableau,
         tolerances: Tolerances,
     ) -> Self {
+        let damping_rate = system.system().mass().diagonal().map(|d| {
+            let c = system.damping();
+            let p = c.pattern();
+            let values = p
+                .row_start
+                .windows(2)
+                .enumerate()
+                .flat_map(|(i, b)| (b[0]..b[1]).map(move |k| (i, k)))
+                .map(|(i, k)| -c.values()[k] / d[i])
+                .collect();
+            (p.row_start.clone(), p.col.clone(), values)
+        });
         Self {
             system,
+            form: ExplicitForm::new(system.system()),
+            damping_rate,
             tableau,
             tolerances,
             max_steps: 1_000_000,
             first_step: None,
+            ws: Workspace::default(),
         }
     }
 
-    /// `L = ∂G/∂(z0, Ω, a)` along the stage sensitivities `psi` (`2n × cols`, the last two
-    /// columns `Ω` and `a` when `parameters`), given the stage's `G` (`field`).
+    /// `out = −M⁻¹C dv` for interleaved `n × k` blocks.
+    fn damping_product(&self, dv: &[f64], k: usize, out: &mut [f64], ws: &mut Workspace) {
+        if let Some((row_start, col, values)) = &self.damping_rate {
+            linalg::sparse_times_interleaved(row_start, col, values, dv, k, out);
+            return;
+        }
+        let n = self.system.dofs();
+        let (a, b) = (&mut ws.columns_in, &mut ws.columns_out);
+        a.resize(n * k, 0.0);
+        b.clear();
+        b.resize(n * k, 0.0);
+        for i in 0..n {
+            for c in 0..k {
+                a[c * n + i] = dv[i * k + c];
+            }
+        }
+        self.system.damping().apply_add(1.0, a, n, k, b, n);
+        self.system.system().mass().solve_in_place(b, k);
+        for i in 0..n {
+            for c in 0..k {
+                out[i * k + c] = -b[c * n + i];
+            }
+        }
+    }
+
+    /// `L = ∂G/∂(z0, Ω, a)` along the stage sensitivities `psi` (interleaved `2n × k`, the
+    /// columns `cols − 2` and `cols − 1` those of `Ω` and `a`), given the stage's `G`.
     #[allow(clippy::too_many_arguments)]
     fn sensitivity_field(
         &self,
@@ -72,45 +136,38 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
         tau: f64,
         drive: Drive,
         psi: &[f64],
+        k: usize,
         cols: usize,
-        parameters: bool,
         out: &mut [f64],
-        scratch: &mut Vec<f64>,
+        ws: &mut Workspace,
     ) {
         let n = self.system.dofs();
-        let n2 = 2 * n;
-        scratch.resize(n * cols, 0.0);
-        let system = self.system.system();
-        system.tangent_stiffness(
-            &y[..n],
-            Block::new(psi, n, cols, n2),
-            BlockMut::new(scratch, n, cols, n),
-        );
-        self.system
-            .damping()
-            .apply_add(1.0, &psi[n..], n2, cols, scratch, n);
-        scratch.iter_mut().for_each(|v| *v = -*v);
-        if parameters {
-            let a_column = &mut scratch[(cols - 1) * n..cols * n];
-            self.system.force().add_at(tau, 1.0, a_column);
-        }
-        system.mass().solve_in_place(scratch, cols);
         let scale = 1.0 / drive.frequency;
-        for c in 0..cols {
-            let (column, velocity) = (
-                &mut out[c * n2..(c + 1) * n2],
-                &psi[c * n2 + n..(c + 1) * n2],
-            );
-            for i in 0..n {
-                column[i] = scale * velocity[i];
-                column[n + i] = scale * scratch[c * n + i];
-            }
+        let (psi_x, psi_v) = psi.split_at(n * k);
+        let (top, bottom) = out.split_at_mut(n * k);
+        for (t, v) in top.iter_mut().zip(psi_v) {
+            *t = scale * v;
         }
-        if parameters {
-            let omega_column = &mut out[(cols - 2) * n2..(cols - 1) * n2];
-            for (o, g) in omega_column.iter_mut().zip(field) {
-                *o -= scale * g;
-            }
+        self.form
+            .acceleration_tangent_interleaved(&y[..n], psi_x, k, bottom);
+        let mut damped = std::mem::take(&mut ws.damped);
+        damped.resize(n * k, 0.0);
+        self.damping_product(psi_v, k, &mut damped, ws);
+        for (b, d) in bottom.iter_mut().zip(&damped) {
+            *b = scale * (*b + d);
+        }
+        ws.damped = damped;
+        // The parameter columns: `∂G/∂a = (1/Ω)[0; M⁻¹F(τ)]`, `∂G/∂Ω = −G/Ω`.
+        ws.force.clear();
+        ws.force.resize(n, 0.0);
+        self.system.force().add_at(tau, 1.0, &mut ws.force);
+        self.system.system().mass().solve_in_place(&mut ws.force, 1);
+        let (omega_column, amplitude_column) = (cols - 2, cols - 1);
+        for i in 0..n {
+            out[(n + i) * k + amplitude_column] += scale * ws.force[i];
+        }
+        for (i, g) in field.iter().enumerate() {
+            out[i * k + omega_column] -= scale * g;
         }
     }
 
@@ -130,18 +187,19 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
         let tab = self.tableau;
         let stages = tab.c.len();
         let cols = if sensitivities { n2 + 2 } else { 0 };
-        let len = n2 * cols;
+        // Directions padded to a multiple of four for the kernels' four-lane groups (zero
+        // directions stay zero).
+        let k = if cols < 4 { cols } else { cols.next_multiple_of(4) };
+        let len = n2 * k;
         let mut phi = vec![0.0; len];
         for c in 0..cols.min(n2) {
-            phi[c * n2 + c] = 1.0;
+            phi[c * k + c] = 1.0;
         }
-        let mut st = Stages {
-            motion: vec![0.0; stages * n2],
-            sensitivity: vec![0.0; stages * len],
-        };
-        let mut y = vec![0.0; n2];
-        let mut psi = vec![0.0; len];
-        let mut scratch = Vec::new();
+        let mut ws = std::mem::take(&mut self.ws);
+        ws.motion.resize(stages * n2, 0.0);
+        ws.sensitivity.resize(stages * len, 0.0);
+        ws.y.resize(n2, 0.0);
+        ws.psi.resize(len, 0.0);
         let mut z = z0.to_vec();
         let (mut z_new, mut phi_new) = (vec![0.0; n2], vec![0.0; len]);
         let mut stats = IntegrationStats::default();
@@ -152,15 +210,15 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
             .filter(|h| *h > 0.0 && *h < span)
             .unwrap_or(span / 100.0);
         let mut last_rejected = false;
-        loop {
+        let result = loop {
             if steps.len() >= self.max_steps {
-                return Err(IntegrationError::TooManySteps {
+                break Err(IntegrationError::TooManySteps {
                     max_steps: self.max_steps,
                     t: tau / drive.frequency,
                 });
             }
             if h < 1e-14 * span {
-                return Err(IntegrationError::StepSizeUnderflow {
+                break Err(IntegrationError::StepSizeUnderflow {
                     t: tau / drive.frequency,
                 });
             }
@@ -170,52 +228,74 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
             }
             for i in 0..stages {
                 let stage_tau = tau0 + tau + tab.c[i] * h;
-                y.copy_from_slice(&z);
-                psi.copy_from_slice(&phi);
-                for (j, &a) in tab.a[i].iter().enumerate() {
-                    if a != 0.0 {
-                        let k = &st.motion[j * n2..(j + 1) * n2];
-                        y.iter_mut().zip(k).for_each(|(y, k)| *y += h * a * k);
-                        let l = &st.sensitivity[j * len..(j + 1) * len];
-                        psi.iter_mut().zip(l).for_each(|(p, l)| *p += h * a * l);
+                {
+                    let mut terms = Terms::new();
+                    for (j, &a) in tab.a[i].iter().enumerate() {
+                        if a != 0.0 {
+                            terms.push(h * a, &ws.motion[j * n2..(j + 1) * n2]);
+                        }
                     }
+                    linear_combination(&mut ws.y, Some(&z), terms.as_slice());
                 }
-                let k = &mut st.motion[i * n2..(i + 1) * n2];
-                phase_field(self.system, &y, stage_tau, drive, k);
+                phase_field(
+                    self.system,
+                    &ws.y,
+                    stage_tau,
+                    drive,
+                    &mut ws.motion[i * n2..(i + 1) * n2],
+                );
                 stats.rhs_evaluations += 1;
                 if cols > 0 {
-                    let l = &mut st.sensitivity[i * len..(i + 1) * len];
+                    {
+                        let mut terms = Terms::new();
+                        for (j, &a) in tab.a[i].iter().enumerate() {
+                            if a != 0.0 {
+                                terms.push(h * a, &ws.sensitivity[j * len..(j + 1) * len]);
+                            }
+                        }
+                        linear_combination(&mut ws.psi, Some(&phi), terms.as_slice());
+                    }
+                    let mut l = std::mem::take(&mut ws.sensitivity);
+                    let y = std::mem::take(&mut ws.y);
+                    let psi = std::mem::take(&mut ws.psi);
+                    let motion = std::mem::take(&mut ws.motion);
                     self.sensitivity_field(
                         &y,
-                        k,
+                        &motion[i * n2..(i + 1) * n2],
                         stage_tau,
                         drive,
                         &psi,
+                        k,
                         cols,
-                        true,
-                        l,
-                        &mut scratch,
+                        &mut l[i * len..(i + 1) * len],
+                        &mut ws,
                     );
+                    (ws.sensitivity, ws.y, ws.psi, ws.motion) = (l, y, psi, motion);
                     stats.tangent_evaluations += 1;
                 }
             }
-            combine(tab.b, h, &z, &st.motion, &mut z_new);
-            combine(tab.b, h, &phi, &st.sensitivity, &mut phi_new);
+            combine(tab.b, h, &z, &ws.motion, &mut z_new);
+            if cols > 0 {
+                combine(tab.b, h, &phi, &ws.sensitivity, &mut phi_new);
+            }
             let tol = self.tolerances;
-            let motion_error = error_norm(tab, h, &st.motion, n2, |i| {
+            let motion_error = error_norm(tab, h, &ws.motion, n2, &mut ws.err_a, &mut ws.err_b, |i| {
                 tol.absolute_at(i, n2) + tol.relative * z[i].abs().max(z_new[i].abs())
             });
             let sensitivity_error = if cols > 0 {
+                // Per direction, the largest displacement and velocity sensitivity set the
+                // scale of that direction's halves.
                 let relative = tol.relative.max(VARIATIONAL_TOLERANCE);
-                let mut size = vec![0.0f64; 2 * cols];
-                for c in 0..cols {
-                    for i in 0..n2 {
-                        let s = &mut size[2 * c + usize::from(i >= n)];
-                        *s = s.max(phi_new[c * n2 + i].abs()).max(phi[c * n2 + i].abs());
+                let mut size = vec![0.0f64; 2 * k];
+                for i in 0..n2 {
+                    let half = usize::from(i >= n);
+                    for c in 0..k {
+                        let s = &mut size[2 * c + half];
+                        *s = s.max(phi_new[i * k + c].abs()).max(phi[i * k + c].abs());
                     }
                 }
-                error_norm(tab, h, &st.sensitivity, len, |k| {
-                    let (c, i) = (k / n2, k % n2);
+                error_norm(tab, h, &ws.sensitivity, len, &mut ws.err_a, &mut ws.err_b, |e| {
+                    let (i, c) = (e / k, e % k);
                     relative * size[2 * c + usize::from(i >= n)] + f64::MIN_POSITIVE
                 })
             } else {
@@ -224,11 +304,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
             // A non-finite state or estimate rejects the step at the largest shrink; if it
             // persists the step underflows and the integration reports it.
             let error = motion_error.max(sensitivity_error);
-            let error = if error.is_finite() {
-                error
-            } else {
-                f64::INFINITY
-            };
+            let error = if error.is_finite() { error } else { f64::INFINITY };
             let factor = if error == 0.0 {
                 MAX_GROWTH
             } else {
@@ -244,13 +320,9 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
                 std::mem::swap(&mut z, &mut z_new);
                 std::mem::swap(&mut phi, &mut phi_new);
                 if last {
-                    break;
+                    break Ok(());
                 }
-                h *= if last_rejected {
-                    factor.min(1.0)
-                } else {
-                    factor
-                };
+                h *= if last_rejected { factor.min(1.0) } else { factor };
                 last_rejected = false;
             } else {
                 stats.rejected_steps += 1;
@@ -260,26 +332,35 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
                 h *= factor.min(1.0);
                 last_rejected = true;
             }
+        };
+        self.ws = ws;
+        result?;
+        // Column-major `2n × cols` for the caller.
+        let mut sensitivity = vec![0.0; n2 * cols];
+        for c in 0..cols {
+            for i in 0..n2 {
+                sensitivity[c * n2 + i] = phi[i * k + c];
+            }
         }
         Ok(ForcedFlow {
             z,
-            sensitivity: phi,
+            sensitivity,
             steps,
             stats,
         })
     }
 }
 
-/// `out = start + h Σ_j b_j k_j`.
+/// `out = start + h Σ_j b_j k_j` in one fused pass.
 fn combine(b: &[f64], h: f64, start: &[f64], stages: &[f64], out: &mut [f64]) {
     let len = start.len();
-    out.copy_from_slice(start);
+    let mut terms = Terms::new();
     for (j, &w) in b.iter().enumerate() {
         if w != 0.0 {
-            let k = &stages[j * len..(j + 1) * len];
-            out.iter_mut().zip(k).for_each(|(o, k)| *o += h * w * k);
+            terms.push(h * w, &stages[j * len..(j + 1) * len]);
         }
     }
+    linear_combination(out, Some(start), terms.as_slice());
 }
 
 /// The scaled RMS norm of the embedded error estimate (DOP853's blend of its 5th- and
@@ -289,20 +370,26 @@ fn error_norm(
     h: f64,
     stages: &[f64],
     len: usize,
+    err_a: &mut Vec<f64>,
+    err_b: &mut Vec<f64>,
     scale: impl Fn(usize) -> f64,
 ) -> f64 {
     let stage = |j: usize| &stages[j * len..(j + 1) * len];
-    let sum = |weights: &mut dyn Iterator<Item = (usize, f64)>| {
-        let mut e = vec![0.0; len];
+    let sum = |weights: &mut dyn Iterator<Item = (usize, f64)>, out: &mut Vec<f64>| {
+        out.clear();
+        out.resize(len, 0.0);
+        let mut terms = Terms::new();
         for (j, w) in weights {
-            e.iter_mut().zip(stage(j)).for_each(|(e, k)| *e += w * k);
+            if w != 0.0 {
+                terms.push(w, stage(j));
+            }
         }
-        e
+        linear_combination(out, None, terms.as_slice());
     };
     match &tab.error {
         ErrorEstimate::Embedded(weights) => {
-            let e = sum(&mut weights.iter().copied().enumerate());
-            let s: f64 = e
+            sum(&mut weights.iter().copied().enumerate(), err_a);
+            let s: f64 = err_a
                 .iter()
                 .enumerate()
                 .map(|(i, e)| (h * e / scale(i)).powi(2))
@@ -310,18 +397,21 @@ fn error_norm(
             (s / len as f64).sqrt()
         }
         ErrorEstimate::Dop853 { fifth, third } => {
-            let e5 = sum(&mut fifth.iter().copied().enumerate());
-            let e3 = sum(&mut tab
-                .b
-                .iter()
-                .copied()
-                .enumerate()
-                .chain(third.iter().map(|&(j, w)| (j, -w))));
+            sum(&mut fifth.iter().copied().enumerate(), err_a);
+            sum(
+                &mut tab
+                    .b
+                    .iter()
+                    .copied()
+                    .enumerate()
+                    .chain(third.iter().map(|&(j, w)| (j, -w))),
+                err_b,
+            );
             let (mut a, mut b) = (0.0, 0.0);
             for i in 0..len {
                 let s = scale(i);
-                a += (e5[i] / s).powi(2);
-                b += (e3[i] / s).powi(2);
+                a += (err_a[i] / s).powi(2);
+                b += (err_b[i] / s).powi(2);
             }
             let denominator = if a + 0.01 * b > 0.0 {
                 a + 0.01 * b
