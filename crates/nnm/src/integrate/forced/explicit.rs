@@ -189,7 +189,11 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
         let cols = if sensitivities { n2 + 2 } else { 0 };
         // Directions padded to a multiple of four for the kernels' four-lane groups (zero
         // directions stay zero).
-        let k = if cols < 4 { cols } else { cols.next_multiple_of(4) };
+        let k = if cols < 4 {
+            cols
+        } else {
+            cols.next_multiple_of(4)
+        };
         let len = n2 * k;
         let mut phi = vec![0.0; len];
         for c in 0..cols.min(n2) {
@@ -279,9 +283,10 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
                 combine(tab.b, h, &phi, &ws.sensitivity, &mut phi_new);
             }
             let tol = self.tolerances;
-            let motion_error = error_norm(tab, h, &ws.motion, n2, &mut ws.err_a, &mut ws.err_b, |i| {
-                tol.absolute_at(i, n2) + tol.relative * z[i].abs().max(z_new[i].abs())
-            });
+            let motion_error =
+                error_norm(tab, h, &ws.motion, n2, &mut ws.err_a, &mut ws.err_b, |i| {
+                    tol.absolute_at(i, n2) + tol.relative * z[i].abs().max(z_new[i].abs())
+                });
             let sensitivity_error = if cols > 0 {
                 // Per direction, the largest displacement and velocity sensitivity set the
                 // scale of that direction's halves.
@@ -294,17 +299,29 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
                         *s = s.max(phi_new[i * k + c].abs()).max(phi[i * k + c].abs());
                     }
                 }
-                error_norm(tab, h, &ws.sensitivity, len, &mut ws.err_a, &mut ws.err_b, |e| {
-                    let (i, c) = (e / k, e % k);
-                    relative * size[2 * c + usize::from(i >= n)] + f64::MIN_POSITIVE
-                })
+                error_norm(
+                    tab,
+                    h,
+                    &ws.sensitivity,
+                    len,
+                    &mut ws.err_a,
+                    &mut ws.err_b,
+                    |e| {
+                        let (i, c) = (e / k, e % k);
+                        relative * size[2 * c + usize::from(i >= n)] + f64::MIN_POSITIVE
+                    },
+                )
             } else {
                 0.0
             };
             // A non-finite state or estimate rejects the step at the largest shrink; if it
             // persists the step underflows and the integration reports it.
             let error = motion_error.max(sensitivity_error);
-            let error = if error.is_finite() { error } else { f64::INFINITY };
+            let error = if error.is_finite() {
+                error
+            } else {
+                f64::INFINITY
+            };
             let factor = if error == 0.0 {
                 MAX_GROWTH
             } else {
@@ -322,7 +339,11 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
                 if last {
                     break Ok(());
                 }
-                h *= if last_rejected { factor.min(1.0) } else { factor };
+                h *= if last_rejected {
+                    factor.min(1.0)
+                } else {
+                    factor
+                };
                 last_rejected = false;
             } else {
                 stats.rejected_steps += 1;
