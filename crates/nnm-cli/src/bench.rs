@@ -6,8 +6,13 @@ use std::ops::ControlFlow;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use nnm::forced::damping::Damping;
+use nnm::forced::{Force, ResponseSettings, Sweep, forced_response};
 use nnm::integrate::IntegrationMethod;
-use nnm::model::{BladedDisk, CantileverBeam, Structure, VonKarmanBeam, duffing, two_dof};
+use nnm::model::{
+    BladedDisk, CantileverBeam, ForcedSystem, MechanicalSystem, Structure, VonKarmanBeam, duffing,
+    two_dof,
+};
 use nnm::modes::{add_labelled_mode, find_mode, linear_modes};
 use nnm::shooting::{Formulation, JacobianMethod, Travel};
 use nnm::{Branch, Settings, Start, continue_branch};
@@ -96,6 +101,44 @@ fn variant_rows(
         .collect()
 }
 
+/// A forced response curve at default settings (events on), as one row.
+fn forced_row(
+    case: &str,
+    label: &'static str,
+    structure: &Structure,
+    damping: &Damping,
+    force: &Force,
+    sweep: Sweep,
+) -> Result<Row> {
+    let c = damping.matrix(structure)?;
+    let system = ForcedSystem::new(structure, &c, force.shape(structure)?)?;
+    let clock = Instant::now();
+    let curve = forced_response(&system, sweep, &[], &ResponseSettings::default(), |_| {
+        ControlFlow::Continue(())
+    })?;
+    let s = curve.stats;
+    Ok(Row {
+        case: case.into(),
+        method: label,
+        seconds: clock.elapsed().as_secs_f64(),
+        points: curve.points.len(),
+        newton: curve.continuation.newton_iterations,
+        integrations: s.integrations,
+        steps: s.integration.steps,
+        rhs: s.integration.rhs_evaluations,
+        tangents: s.integration.tangent_evaluations,
+        factorisations: s.integration.factorisations,
+        products: 0,
+    })
+}
+
+/// The linear frequency of mode `label`.
+fn mode_frequency(structure: &Structure, label: &str) -> Result<f64> {
+    let modes = linear_modes(structure)?;
+    let (index, _) = find_mode(&modes, label, None).context("mode")?;
+    Ok(modes[index].frequency)
+}
+
 /// One shooting evaluation (residual + Jacobian) and the monodromy at a converged point of
 /// the (1,5) backbone near +5%, repeated.
 fn shooting_rows(structure: &Structure, start: &Start, repeat: usize) -> Result<Vec<Row>> {
@@ -181,6 +224,37 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
             s
         },
     )?);
+    // A forced response against the backbone of the same mode (events on both): engine
+    // order 5 at the blades, Rayleigh damping 2e-3 K (0.2% at the resonance), across the
+    // (1,5) resonance and its two folds.
+    let (fold_sizes, forced) = {
+        let mut s = Settings::default();
+        s.limits.frequency_shift_max = 0.10;
+        let mut pair = variant_rows(
+            "(1,5): backbone vs forced",
+            &disk,
+            &start_1_5,
+            &[("backbone", s)],
+        )?;
+        let r = mode_frequency(&disk, "1,5")?;
+        pair.push(forced_row(
+            "(1,5): backbone vs forced",
+            "forced EO5",
+            &disk,
+            &Damping::Rayleigh([0.0, 2e-3]),
+            &Force::EngineOrder {
+                engine_order: 5,
+                amplitude: 0.005,
+                sector_dof: 1,
+            },
+            Sweep::Frequency {
+                from: 0.9 * r,
+                to: 1.1 * r,
+                amplitude: 0.005,
+            },
+        )?);
+        (2, pair)
+    };
     let duffing = duffing(1.0, 1.0)?;
     rows.extend(branch_rows(
         "Duffing backbone to +50%, tol 1e-10",
@@ -208,6 +282,25 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
     )?);
     let groups = rows.len() / 2;
     let mut sizes = vec![2; groups];
+    rows.extend(forced);
+    sizes.push(fold_sizes);
+    // The damped Duffing oscillator's curve through its two folds (docs/method.md §19).
+    rows.push(forced_row(
+        "Duffing forced, c = 0.02, F = 0.1",
+        "dop853",
+        &duffing,
+        &Damping::Matrix(nnm::model::Matrix::from_rows(&[vec![0.02]]).map_err(anyhow::Error::msg)?),
+        &Force::Dofs {
+            dofs: vec![0],
+            amplitude: 0.1,
+        },
+        Sweep::Frequency {
+            from: 0.5,
+            to: 3.5,
+            amplitude: 0.1,
+        },
+    )?);
+    sizes.push(1);
     let beam_settings = |shift: f64| {
         let mut s = Settings::default();
         s.limits.frequency_shift_max = shift;
@@ -261,6 +354,32 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
                 ("dop853", two_points(IntegrationMethod::Dop853)),
             ],
         )?);
+        sizes.push(2);
+        // The 19-element beam's first resonance, forced at the tip with Rayleigh damping,
+        // against its backbone to +20%.
+        let w1 = mode_frequency(&beam, "0")?;
+        let mut pair = variant_rows(
+            "beam 19 el.: backbone vs forced",
+            &beam,
+            &start(&beam, "0")?,
+            &[("backbone", beam_settings(0.2))],
+        )?;
+        pair.push(forced_row(
+            "beam 19 el.: backbone vs forced",
+            "forced tip",
+            &beam,
+            &Damping::Rayleigh([0.0, 1e-5]),
+            &Force::Dofs {
+                dofs: vec![beam.dofs() - 2],
+                amplitude: 1.0,
+            },
+            Sweep::Frequency {
+                from: 0.9 * w1,
+                to: 1.3 * w1,
+                amplitude: 1.0,
+            },
+        )?);
+        rows.extend(pair);
         sizes.push(2);
         let plate = VonKarmanBeam::default().build()?;
         // Started where the frequency has moved (see examples/von-karman-beam.toml).

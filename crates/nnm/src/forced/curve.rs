@@ -9,6 +9,7 @@ use crate::integrate::forced::{ForcedCollocation, ForcedIntegrator, ForcedRungeK
 use crate::integrate::{
     DOP853, DOPRI5, GAUSS4, GAUSS6, IntegrationMethod, IntegrationSettings, RADAU5, Tolerances,
 };
+use crate::linalg;
 use crate::model::{ForcedSystem, MechanicalSystem};
 
 use super::events::{ResponseEvent, ResponseEvents};
@@ -198,13 +199,13 @@ pub fn check_sweep(sweep: &Sweep) -> Result<(), ResponseError> {
 }
 
 /// The scales of the unknowns: the largest linear response over the sweep (on a grid of
-/// frequencies, or at the largest amplitude), its velocity at the sweep's frequency, and the
-/// sweep's width.
+/// frequencies, or at the largest amplitude) as the Euclidean norm of its displacements, its
+/// velocity at the sweep's frequency, and the sweep's width. The norm, not the largest
+/// entry: the arclength runs over every dof, and a disk whose sixty dofs all move would
+/// otherwise see a curve √60 times longer than the plot of one blade shows (210 points
+/// instead of about forty on the (1,5) engine-order curve).
 fn scales(linear: &LinearOperators, sweep: &Sweep) -> Scales {
-    let largest = |z: &[f64]| {
-        let n = z.len() / 2;
-        z[..n].iter().fold(0.0f64, |m, x| m.max(x.abs()))
-    };
+    let largest = |z: &[f64]| linalg::norm(&z[..z.len() / 2]);
     let (displacement, frequency) = match *sweep {
         Sweep::Frequency {
             from,
