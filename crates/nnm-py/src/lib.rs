@@ -37,10 +37,14 @@ fn _nnm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(forced::response, m)?)?;
     m.add_function(wrap_pyfunction!(forced::forced_motion, m)?)?;
     m.add_function(wrap_pyfunction!(forced::force_amplitude, m)?)?;
-    m.add("RESPONSE_SETTINGS_KEYS", forced::response_keys())?;
+    m.add(
+        "RESPONSE_SETTINGS_KEYS",
+        nnm_io::job::RESPONSE_SETTINGS_KEYS.to_vec(),
+    )?;
     m.add("SETTINGS_KEYS", nnm::Settings::KEYS.to_vec())?;
     m.add("FAMILIES", nnm_io::job::family_names().to_vec())?;
     m.add("POINT_COLUMNS", results::point_columns())?;
+    m.add("RESPONSE_COLUMNS", results::response_columns())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
