@@ -4,8 +4,10 @@
 use nnm::forced::ResponsePoint;
 use nnm::modes::{LinearMode, StandingWave};
 use nnm::{Branch, BranchPoint, StopReason};
-use nnm_io::output::columns::{BranchContext, Fields, Kind, POINT_COLUMNS, PointColumn, Value};
-use nnm_io::output::{RESPONSE_COLUMNS, ResponseContext, ResponseFields};
+use nnm_io::output::columns::{
+    BranchContext, Column, ColumnFields, Kind, POINT_COLUMNS, PointColumn, Value,
+};
+use nnm_io::output::{RESPONSE_COLUMNS, ResponseContext};
 use numpy::ndarray::Array2;
 use numpy::{Complex64, IntoPyArray};
 use pyo3::prelude::*;
@@ -27,41 +29,25 @@ pub type ColumnInfo = (
 /// order: `kind` is one of [`kind_name`]'s words, `name` the CSV header (`<d>` standing for the
 /// dof where `per_output_dof`), `csv` whether `<name>.csv` (and so `Branch.to_pandas()`) has it.
 pub fn point_columns() -> Vec<ColumnInfo> {
-    POINT_COLUMNS
-        .iter()
-        .map(|c| {
-            let per_output_dof = matches!(c.fields, Fields::PerOutputDof(_));
-            (
-                c.key,
-                c.name,
-                c.unit,
-                c.doc,
-                kind_name(c.kind),
-                c.csv,
-                per_output_dof,
-            )
-        })
-        .collect()
+    POINT_COLUMNS.iter().map(column_info).collect()
 }
 
 /// The columns of a response's points as the Python `Response` reads them
 /// (`_nnm.RESPONSE_COLUMNS`), as [`point_columns`] gives a branch's.
 pub fn response_columns() -> Vec<ColumnInfo> {
-    RESPONSE_COLUMNS
-        .iter()
-        .map(|c| {
-            let per_output_dof = matches!(c.fields, ResponseFields::PerOutputDof(_));
-            (
-                c.key,
-                c.name,
-                c.unit,
-                c.doc,
-                kind_name(c.kind),
-                c.csv,
-                per_output_dof,
-            )
-        })
-        .collect()
+    RESPONSE_COLUMNS.iter().map(column_info).collect()
+}
+
+fn column_info<F: ColumnFields>(c: &Column<F>) -> ColumnInfo {
+    (
+        c.key,
+        c.name,
+        c.unit,
+        c.doc,
+        kind_name(c.kind),
+        c.csv,
+        c.per_output_dof(),
+    )
 }
 
 /// The name Python sees for a column's kind.
@@ -159,8 +145,7 @@ fn point_column<'py>(
     points: &[BranchPoint],
     context: &BranchContext<'_>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let width =
-        matches!(column.fields, Fields::PerOutputDof(_)).then_some(context.output_dofs.len());
+    let width = column.per_output_dof().then_some(context.output_dofs.len());
     let rows = points.iter().map(|p| column.values(p, context)).collect();
     column_array(py, column.name, column.kind, width, rows)
 }
@@ -173,8 +158,7 @@ pub fn response_columns_into<'py>(
     out: &Bound<'py, PyDict>,
 ) -> PyResult<()> {
     for column in RESPONSE_COLUMNS {
-        let width = matches!(column.fields, ResponseFields::PerOutputDof(_))
-            .then_some(context.output_dofs.len());
+        let width = column.per_output_dof().then_some(context.output_dofs.len());
         let rows = points.iter().map(|p| column.values(p, context)).collect();
         out.set_item(
             column.key,

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use nnm::forced::{ForcedStats, ResponseCurve, ResponseEvent, ResponsePoint};
 use serde::Serialize;
 
-use super::columns::{Kind, Value};
+use super::columns::{Column, ColumnFields, Kind, Value};
 use super::{CsvFile, Number, OutputError, output_error};
 
 /// What the columns of a response need besides its points.
@@ -33,36 +33,19 @@ pub enum ResponseFields {
     PerOutputDof(fn(&ResponsePoint, usize) -> Value),
 }
 
-/// One column of a response's points.
-#[derive(Clone, Copy)]
-pub struct ResponseColumn {
-    /// The CSV header (`peak_x<d>`: one per output dof).
-    pub name: &'static str,
-    /// The unit, as docs/output.md gives it (`—` for a pure number or a word).
-    pub unit: &'static str,
-    /// What the value is, in a line.
-    pub doc: &'static str,
-    /// The name of the column's array in the Python binding's `Response` (points × output
-    /// dofs for [`ResponseFields::PerOutputDof`]).
-    pub key: &'static str,
-    pub kind: Kind,
-    /// Whether `<name>.csv` has the column; one it leaves out is in the Python `Response` (and,
-    /// as a field of the point, in `<name>.json`'s record).
-    pub csv: bool,
-    pub fields: ResponseFields,
+impl ColumnFields for ResponseFields {
+    fn per_output_dof(&self) -> bool {
+        matches!(self, ResponseFields::PerOutputDof(_))
+    }
 }
+
+/// One column of a response's points.
+pub type ResponseColumn = Column<ResponseFields>;
 
 impl ResponseColumn {
     /// The column's header fields.
     pub fn headers(&self, context: &ResponseContext<'_>) -> Vec<String> {
-        match self.fields {
-            ResponseFields::One(_) => vec![self.name.to_string()],
-            ResponseFields::PerOutputDof(_) => context
-                .output_dofs
-                .iter()
-                .map(|d| self.name.replace("<d>", &d.to_string()))
-                .collect(),
-        }
+        self.header_names(context.output_dofs)
     }
 
     /// The column's fields at point `p`.
