@@ -25,15 +25,8 @@ use pyo3::types::{PyBool, PyComplex, PyDict, PyList};
 
 use crate::convert::{matrix_from_py, table_from_dict};
 use crate::errors::{no_panic, numerical_error, value_error};
-use crate::model::NativeModel;
+use crate::model::{NativeDamping, NativeModel};
 use crate::results::response_columns_into;
-
-/// A damping matrix `C` built for one model and checked (size, symmetry, semi-definiteness)
-/// when the Python model is made, kept beside it: the conservative model does not hold it.
-#[pyclass(frozen, module = "nnm._nnm")]
-pub struct NativeDamping {
-    pub(crate) matrix: Matrix,
-}
 
 /// `C` of `model` from a Python damping: a dict of one of the job file's `[model] damping`
 /// forms (`{"rayleigh": [α, β]}`, `{"modal": [ζ, ...]}`, `{"file": "C.mtx"}`, relative to

@@ -19,7 +19,6 @@ use pyo3::types::{PyDict, PyList};
 
 use crate::convert::{self, element_from_py, matrix_from_py, table_from_dict};
 use crate::errors::{input_error, job_error, no_panic, numerical_error, value_error};
-use crate::forced::NativeDamping;
 use crate::observer::PyObserver;
 use crate::results::{branch_dict, modes_dict, stop_kind, wave_name};
 
@@ -35,6 +34,14 @@ pub struct NativeModel {
     pub(crate) fixed: Option<FixedDofs>,
     /// The job file's `[model] damping`: as written, and built.
     job_damping: Option<(DampingSpec, Matrix)>,
+}
+
+/// A damping matrix `C` built for one model and checked (size, symmetry, semi-definiteness)
+/// when the Python model is made (`forced::damping`) or its job file read, kept beside it:
+/// the conservative model does not hold it.
+#[pyclass(frozen, module = "nnm._nnm")]
+pub struct NativeDamping {
+    pub(crate) matrix: Matrix,
 }
 
 /// What a switch at one of a computed branch's events needs from it: the start it was
