@@ -62,7 +62,7 @@ pub use load::{MAX_BRANCH_NAME, load_job, load_job_with, parse_job};
 pub use model::{general_model, model_from_table};
 pub use response::{
     AMPLITUDE_START_RATIO, RESPONSE_KEYS, RESPONSE_SETTINGS_KEYS, ResponseBody, ResponseJob,
-    damping_matrix, response_body,
+    damping_matrix, given_damping_matrix, response_body, response_settings,
 };
 pub use schema::{DampingSpec, EventStart};
 
@@ -101,6 +101,11 @@ pub struct Job {
     pub default_settings: Settings,
     /// `C` of `[model] damping`, after `fixed_dofs`, checked symmetric positive semi-definite.
     pub damping: Option<nnm::model::Matrix>,
+    /// `[model] damping` as written (what `damping` was built from).
+    pub damping_spec: Option<DampingSpec>,
+    /// `[model] fixed_dofs`: the numbering a force's `dofs` and a damping `matrix` are given
+    /// in (the full one) against the model's.
+    pub fixed_dofs: Option<nnm::model::FixedDofs>,
     /// The forced responses (`[[response]]`), in the order of the file.
     pub responses: Vec<ResponseJob>,
 }

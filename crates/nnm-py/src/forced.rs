@@ -1,20 +1,22 @@
 //! Forced, damped responses from Python (`nnm.frequency_response`, `nnm.force_response`):
-//! the damping and the force read through the core's own serde forms (`nnm::forced::damping::
-//! Damping`, `nnm::forced::Force`), so that a script and a job file accept the same forms
-//! with the same messages; the curve computed by `nnm::forced::forced_response` without the
+//! the damping built and the settings read by the job file's own functions
+//! (`nnm_io::job::damping_matrix`, `response_settings`) and the force through the core's serde
+//! form (`nnm::forced::Force`), so that a script and a job file accept the same forms with the
+//! same messages; the curve computed by `nnm::forced::forced_response` without the
 //! GIL, Ctrl-C checked between points; the points handed back as numpy columns.
 
 use std::ops::ControlFlow;
+use std::path::Path;
 
-use nnm::forced::damping::Damping;
 use nnm::forced::{
-    Force, ResponseCurve, ResponseError, ResponseItem, ResponsePoint, ResponseSettings,
-    ResponseStop, Sweep, forced_response,
+    Force, ResponseCurve, ResponseError, ResponseItem, ResponseStop, Sweep, forced_response,
 };
 use nnm::integrate::forced::{Drive, ForcedIntegrator, ForcedRungeKutta};
 use nnm::integrate::{DOP853, Tolerances};
-use nnm::model::{ForcedSystem, HarmonicForce, Matrix, SparseMatrix};
+use nnm::model::{ForcedSystem, Matrix, SparseMatrix};
 use nnm::{Item, MechanicalSystem, Structure};
+use nnm_io::job::{DampingSpec, damping_matrix, given_damping_matrix, response_settings};
+use nnm_io::output::ResponseContext;
 use numpy::ndarray::Array2;
 use numpy::{Complex64, IntoPyArray, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -23,27 +25,15 @@ use pyo3::types::{PyBool, PyComplex, PyDict, PyList};
 
 use crate::convert::{matrix_from_py, table_from_dict};
 use crate::errors::{no_panic, numerical_error, value_error};
-use crate::model::NativeModel;
+use crate::model::{NativeDamping, NativeModel};
+use crate::results::response_columns_into;
 
-/// A damping matrix `C` built for one model and checked (size, symmetry, semi-definiteness)
-/// when the Python model is made, kept beside it: the conservative model does not hold it.
-#[pyclass(frozen, module = "nnm._nnm")]
-pub struct NativeDamping {
-    matrix: Matrix,
-}
-
-/// A unit force on dof 0: what `ForcedSystem::new` needs beside `C` to check `C` alone.
-fn probe_force(n: usize) -> HarmonicForce {
-    let mut shape = vec![0.0; n];
-    if let Some(first) = shape.first_mut() {
-        *first = 1.0;
-    }
-    HarmonicForce::cosine(shape)
-}
-
-/// `C` of `model` from a Python damping: a dict of one of the core's forms (`{"rayleigh":
-/// [α, β]}`, `{"modal": [ζ, ...]}`) or a matrix as `convert::matrix_from_py` takes it.
-/// Every refusal is the core's message, as a `ValueError`.
+/// `C` of `model` from a Python damping: a dict of one of the job file's `[model] damping`
+/// forms (`{"rayleigh": [α, β]}`, `{"modal": [ζ, ...]}`, `{"file": "C.mtx"}`, relative to
+/// the working directory), read and built as the job file's (`nnm_io::job::damping_matrix`),
+/// or a matrix as `convert::matrix_from_py` takes it, checked as a job file's `matrix`
+/// (`nnm_io::job::given_damping_matrix`). Matrices are in the model's full numbering (before
+/// `fixed_dofs`). Every refusal is the job file's message, as a `ValueError`.
 #[pyfunction]
 pub fn damping(
     py: Python<'_>,
@@ -52,19 +42,20 @@ pub fn damping(
 ) -> PyResult<NativeDamping> {
     let form = if let Ok(dict) = spec.cast::<PyDict>() {
         let value = toml::Value::Table(table_from_dict(dict)?);
-        value
-            .try_into::<Damping>()
-            .map_err(|e| PyValueError::new_err(format!("damping: {}", e.message())))?
+        Ok(value
+            .try_into::<DampingSpec>()
+            .map_err(|e| PyValueError::new_err(format!("damping: {}", e.message())))?)
     } else {
-        Damping::Matrix(matrix_from_py("damping", spec)?)
+        Err(matrix_from_py("damping", spec)?)
     };
-    let structure = &model.structure;
+    let (structure, fixed) = (&model.structure, model.fixed.as_ref());
     let matrix = py.detach(|| {
         no_panic(|| {
-            let matrix = form.matrix(structure).map_err(value_error)?;
-            ForcedSystem::new(structure, &matrix, probe_force(structure.dofs()))
-                .map_err(value_error)?;
-            Ok(matrix)
+            match form {
+                Ok(spec) => damping_matrix(&spec, structure, fixed, Path::new("")),
+                Err(matrix) => given_damping_matrix(matrix, structure, fixed),
+            }
+            .map_err(PyValueError::new_err)
         })
     })?;
     Ok(NativeDamping { matrix })
@@ -94,54 +85,6 @@ fn forced_system<'a>(
     };
     let shape = force.shape(structure).map_err(value_error)?;
     ForcedSystem::new(structure, c, shape).map_err(value_error)
-}
-
-/// The keys a response's settings may have: the fields of [`ResponseSettings`] as serde
-/// writes them (the core declares them once; a new setting is accepted here without change).
-pub fn response_keys() -> Vec<String> {
-    toml::Table::try_from(ResponseSettings::default())
-        .map(|t| t.keys().cloned().collect())
-        .unwrap_or_default()
-}
-
-/// Settings from keyword arguments: an unknown key is refused (as the job file refuses one),
-/// and the values are held to the ranges a branch's settings are (`nnm::Settings::validate`,
-/// the same messages).
-pub fn response_settings(table: toml::Table) -> Result<ResponseSettings, String> {
-    let keys = response_keys();
-    if let Some(key) = table.keys().find(|k| !keys.contains(k)) {
-        return Err(format!(
-            "unknown field `{key}`, expected one of {}",
-            keys.iter()
-                .map(|k| format!("`{k}`"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-    }
-    // Over the defaults written out: serde fills a key missing from a flattened group with
-    // that group's own default (a branch's initial_step 0.1, not a response's 0.02).
-    let mut full = toml::Table::try_from(ResponseSettings::default()).map_err(|e| e.to_string())?;
-    full.extend(table);
-    let settings: ResponseSettings = full
-        .try_into()
-        .map_err(|e: toml::de::Error| e.message().to_string())?;
-    let check = nnm::Settings {
-        continuation: settings.continuation.clone(),
-        integration: settings.integration.clone(),
-        limits: nnm::settings::Limits {
-            max_points: settings.max_points,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
-    check.validate().map_err(|e| e.to_string())?;
-    if settings.samples < 8 {
-        return Err(format!(
-            "samples must be at least 8, got {}",
-            settings.samples
-        ));
-    }
-    Ok(settings)
 }
 
 /// Hands each point to the Python callback `(index, frequency, force_amplitude, stable)` and
@@ -191,12 +134,13 @@ impl ResponseObserver<'_> {
 }
 
 /// One curve: `sweep` is `("frequency", Ω0, Ω1, a)` or `("amplitude", a0, a1, Ω)`; `force`
-/// the job file's force keys, `settings` a response's keys. Returns a dict of numpy columns
-/// (see `curve_dict`); a first point that does not converge is data (`error`), bad input a
+/// the job file's force keys, `settings` a response's keys, `curve` the curve's place among
+/// the force levels (the CSV's `curve` column). Returns a dict of numpy columns (see
+/// `curve_dict`); a first point that does not converge is data (`error`), bad input a
 /// `ValueError`, Ctrl-C or the callback's exception raised with the points so far on
 /// `partial`.
 #[pyfunction]
-#[pyo3(signature = (model, damping, force, sweep, output_dofs, settings, callback=None))]
+#[pyo3(signature = (model, damping, force, sweep, output_dofs, settings, curve=0, callback=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn response<'py>(
     py: Python<'py>,
@@ -206,10 +150,12 @@ pub fn response<'py>(
     sweep: (String, f64, f64, f64),
     output_dofs: Option<Vec<usize>>,
     settings: &Bound<'py, PyDict>,
+    curve: usize,
     callback: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let force = force_from(force)?;
     let settings = response_settings(table_from_dict(settings)?).map_err(PyValueError::new_err)?;
+    let index = curve;
     let sweep = match sweep.0.as_str() {
         "frequency" => Sweep::Frequency {
             from: sweep.1,
@@ -254,7 +200,7 @@ pub fn response<'py>(
     out.set_item("dofs", structure.dofs())?;
     match result {
         Ok(curve) => {
-            curve_dict(py, &curve, &out)?;
+            curve_dict(py, index, &curve, &out)?;
             let kind = match &curve.stop {
                 ResponseStop::Stopped if observer.stopped => "callback",
                 ResponseStop::Stopped => "interrupted",
@@ -296,7 +242,7 @@ pub fn response<'py>(
                 stats: Default::default(),
                 continuation: Default::default(),
             };
-            curve_dict(py, &empty, &out)?;
+            curve_dict(py, index, &empty, &out)?;
             out.set_item("stop_kind", "first-point")?;
             out.set_item("stop", format!("the first point failed: {e}"))?;
             out.set_item("error", format!("the first point failed: {e}"))?;
@@ -309,71 +255,21 @@ pub fn response<'py>(
     Ok(out)
 }
 
-/// The per-point columns of `points` into `out` (`width` peaks a point).
-fn points_into<'py>(
+/// Curve `index`'s points as numpy columns (one per declared response column, with the
+/// states and the multipliers), its events as dicts, why it ended and its counters.
+fn curve_dict<'py>(
     py: Python<'py>,
-    points: &[&ResponsePoint],
-    width: usize,
+    index: usize,
+    curve: &ResponseCurve,
     out: &Bound<'py, PyDict>,
 ) -> PyResult<()> {
+    let points = &curve.points;
+    let context = ResponseContext {
+        curve: index,
+        output_dofs: &curve.output_dofs,
+    };
+    response_columns_into(py, points, &context, out)?;
     let m = points.len();
-    let float =
-        |f: &dyn Fn(&ResponsePoint) -> f64| -> Vec<f64> { points.iter().map(|p| f(p)).collect() };
-    out.set_item(
-        "index",
-        points
-            .iter()
-            .map(|p| p.index as i64)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    out.set_item("frequency", float(&|p| p.frequency).into_pyarray(py))?;
-    out.set_item(
-        "force_amplitude",
-        float(&|p| p.force_amplitude).into_pyarray(py),
-    )?;
-    out.set_item(
-        "harmonic_amplitude",
-        float(&|p| p.harmonic_amplitude).into_pyarray(py),
-    )?;
-    out.set_item("phase_lag", float(&|p| p.phase_lag).into_pyarray(py))?;
-    out.set_item(
-        "max_floquet_modulus",
-        float(&|p| p.max_floquet_modulus).into_pyarray(py),
-    )?;
-    out.set_item(
-        "relative_residual",
-        float(&|p| p.relative_residual).into_pyarray(py),
-    )?;
-    out.set_item("step", float(&|p| p.step).into_pyarray(py))?;
-    out.set_item(
-        "iterations",
-        points
-            .iter()
-            .map(|p| p.iterations as i64)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    out.set_item(
-        "integration_steps",
-        points
-            .iter()
-            .map(|p| p.integration_steps as i64)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    out.set_item(
-        "stable",
-        points
-            .iter()
-            .map(|p| p.stable)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    let peaks = Array2::from_shape_fn((m, width), |(k, d)| {
-        points[k].peaks.get(d).copied().unwrap_or(f64::NAN)
-    });
-    out.set_item("peaks", peaks.into_pyarray(py))?;
     let n2 = points.first().map_or(0, |p| p.z0.len());
     out.set_item(
         "state0",
@@ -393,18 +289,6 @@ fn points_into<'py>(
             })
     });
     out.set_item("multipliers", multipliers.into_pyarray(py))?;
-    Ok(())
-}
-
-/// A curve's points as numpy columns, its events as dicts, why it ended and its counters.
-fn curve_dict<'py>(
-    py: Python<'py>,
-    curve: &ResponseCurve,
-    out: &Bound<'py, PyDict>,
-) -> PyResult<()> {
-    let width = curve.output_dofs.len();
-    let points: Vec<&ResponsePoint> = curve.points.iter().collect();
-    points_into(py, &points, width, out)?;
     out.set_item("output_dofs", curve.output_dofs.clone())?;
     out.set_item("phase_dof", curve.phase_dof)?;
     out.set_item("integrator", curve.integrator)?;
@@ -505,59 +389,4 @@ pub fn forced_motion<'py>(
 #[pyfunction]
 pub fn force_amplitude(force: &Bound<'_, PyDict>) -> PyResult<f64> {
     Ok(force_from(force)?.amplitude())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn table(text: &str) -> toml::Table {
-        text.parse().expect("valid TOML")
-    }
-
-    /// The accepted keys are the core's `ResponseSettings` fields, flattened groups included,
-    /// and none of a branch's.
-    #[test]
-    fn keys_are_the_response_settings_fields() {
-        let keys = response_keys();
-        for key in [
-            "tolerance",
-            "max_step",
-            "integrator",
-            "events",
-            "max_points",
-            "samples",
-        ] {
-            assert!(keys.iter().any(|k| k == key), "{key} missing from {keys:?}");
-        }
-        assert!(!keys.iter().any(|k| k == "energy_max"));
-    }
-
-    /// A misspelt key is refused as the job file refuses one; values out of range with the
-    /// branch settings' messages; given values are used and the others keep the response's
-    /// own defaults (not a branch's).
-    #[test]
-    fn settings_are_checked_and_keep_the_response_defaults() {
-        let e = response_settings(table("tolerence = 1e-9")).unwrap_err();
-        assert!(
-            e.starts_with("unknown field `tolerence`, expected one of"),
-            "{e}"
-        );
-        let e = response_settings(table("tolerance = 0.1")).unwrap_err();
-        assert!(e.contains("tolerance 0.1 is too loose"), "{e}");
-        let e = response_settings(table("max_points = 0")).unwrap_err();
-        assert!(
-            e.contains("max_points and max_iterations must be at least 1"),
-            "{e}"
-        );
-        let e = response_settings(table("samples = 4")).unwrap_err();
-        assert!(e.contains("samples must be at least 8"), "{e}");
-        let s = response_settings(table("max_points = 7\ntolerance = 1e-10")).unwrap();
-        assert_eq!(s.max_points, 7);
-        assert_eq!(s.continuation.tolerance, 1e-10);
-        assert_eq!(
-            s.continuation.initial_step,
-            ResponseSettings::default().continuation.initial_step
-        );
-    }
 }

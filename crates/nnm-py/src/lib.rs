@@ -7,10 +7,11 @@
 //! (`python/nnm`) gives the API its shape: classes, defaults, exceptions, progress bars, plots.
 //!
 //! - `convert`: Python values into job-file values, matrices and nonlinear elements;
-//! - `model`: the native classes `NativeModel` (the model API) and `NativeBranch`, and the
-//!   built-in families' default parameters (`family_defaults`);
-//! - `forced`: forced, damped responses (the damping beside the model, the force, the curve
-//!   and a point's motion);
+//! - `model`: the native classes `NativeModel` (the model API), `NativeDamping` (the damping
+//!   kept beside it) and `NativeBranch`, and the built-in families' default parameters
+//!   (`family_defaults`);
+//! - `forced`: forced, damped responses (the damping built, the force, the curve and a
+//!   point's motion);
 //! - `observer`: the continuation's points handed to a Python callback, Ctrl-C checked;
 //! - `results`: branches and modes as numpy arrays and dicts;
 //! - `errors`: library errors and panics as Python exceptions.
@@ -32,15 +33,19 @@ fn _nnm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<NativeModel>()?;
     m.add_class::<NativeBranch>()?;
     m.add_function(wrap_pyfunction!(family_defaults, m)?)?;
-    m.add_class::<forced::NativeDamping>()?;
+    m.add_class::<model::NativeDamping>()?;
     m.add_function(wrap_pyfunction!(forced::damping, m)?)?;
     m.add_function(wrap_pyfunction!(forced::response, m)?)?;
     m.add_function(wrap_pyfunction!(forced::forced_motion, m)?)?;
     m.add_function(wrap_pyfunction!(forced::force_amplitude, m)?)?;
-    m.add("RESPONSE_SETTINGS_KEYS", forced::response_keys())?;
+    m.add(
+        "RESPONSE_SETTINGS_KEYS",
+        nnm_io::job::RESPONSE_SETTINGS_KEYS.to_vec(),
+    )?;
     m.add("SETTINGS_KEYS", nnm::Settings::KEYS.to_vec())?;
     m.add("FAMILIES", nnm_io::job::family_names().to_vec())?;
     m.add("POINT_COLUMNS", results::point_columns())?;
+    m.add("RESPONSE_COLUMNS", results::response_columns())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

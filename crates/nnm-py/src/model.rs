@@ -6,10 +6,10 @@
 use std::path::PathBuf;
 
 use nnm::bifurcation::{Event, SwitchError};
-use nnm::model::{CyclicSymmetry, Matrix, Structure};
+use nnm::model::{CyclicSymmetry, FixedDofs, Matrix, Structure};
 use nnm::modes::{LinearMode, linear_modes};
 use nnm::{Branch, MechanicalSystem, Start, StopReason};
-use nnm_io::job::{BranchBody, BranchJob};
+use nnm_io::job::{BranchBody, BranchJob, DampingSpec};
 use nnm_io::output::columns::BranchContext;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1};
@@ -29,6 +29,19 @@ pub struct NativeModel {
     family: String,
     /// The `[[branch]]` entries of the job file (empty for other models).
     branches: Vec<BranchJob>,
+    /// The dofs removed from the model given (`fixed_dofs`): a damping matrix is given in the
+    /// full numbering, as `mass` and `stiffness` are.
+    pub(crate) fixed: Option<FixedDofs>,
+    /// The job file's `[model] damping`: as written, and built.
+    job_damping: Option<(DampingSpec, Matrix)>,
+}
+
+/// A damping matrix `C` built for one model and checked (size, symmetry, semi-definiteness)
+/// when the Python model is made (`forced::damping`) or its job file read, kept beside it:
+/// the conservative model does not hold it.
+#[pyclass(frozen, module = "nnm._nnm")]
+pub struct NativeDamping {
+    pub(crate) matrix: Matrix,
 }
 
 /// What a switch at one of a computed branch's events needs from it: the start it was
@@ -51,6 +64,8 @@ impl NativeModel {
             structure,
             family,
             branches: Vec::new(),
+            fixed: None,
+            job_damping: None,
         })
     }
 
@@ -79,6 +94,8 @@ impl NativeModel {
             structure: job.structure,
             family: job.family,
             branches: job.branches,
+            fixed: job.fixed_dofs,
+            job_damping: job.damping_spec.zip(job.damping),
         })
     }
 
@@ -102,6 +119,10 @@ impl NativeModel {
             .enumerate()
             .map(|(k, e)| element_from_py(k, n, &e))
             .collect::<PyResult<Vec<_>>>()?;
+        // Checked (with the job file's message) as the model is built below.
+        let fixed = fixed_dofs
+            .as_deref()
+            .and_then(|dofs| FixedDofs::new(n, dofs).ok());
         let cyclic = cyclic.map(|(sectors, dofs_per_sector)| CyclicSymmetry {
             sectors,
             dofs_per_sector,
@@ -117,6 +138,8 @@ impl NativeModel {
             structure,
             family: "general".into(),
             branches: Vec::new(),
+            fixed,
+            job_damping: None,
         })
     }
 
@@ -138,6 +161,24 @@ impl NativeModel {
         self.structure
             .cyclic_symmetry()
             .map(|c| (c.sectors, c.dofs_per_sector))
+    }
+
+    /// The job file's `[model] damping`: its form as the file gives it (a dict) and `C` built
+    /// from it, or `None` (no damping, or not a job file's model).
+    fn job_damping<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Option<(Bound<'py, PyAny>, NativeDamping)>> {
+        let Some((spec, matrix)) = &self.job_damping else {
+            return Ok(None);
+        };
+        let form = toml::Value::try_from(spec).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(Some((
+            convert::from_toml(py, &form)?,
+            NativeDamping {
+                matrix: matrix.clone(),
+            },
+        )))
     }
 
     /// The names of the job file's branches.

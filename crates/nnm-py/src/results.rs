@@ -1,15 +1,20 @@
-//! Results as Python values: a branch's points as numpy columns with its events, stop and
-//! counters, linear modes as arrays, and the names Python sees for patterns and stop reasons.
+//! Results as Python values: a branch's points (and a response's) as numpy columns, a branch's
+//! events, stop and counters, linear modes as arrays, and the names Python sees for patterns and stop reasons.
 
+use nnm::forced::ResponsePoint;
 use nnm::modes::{LinearMode, StandingWave};
 use nnm::{Branch, BranchPoint, StopReason};
-use nnm_io::output::columns::{BranchContext, Fields, Kind, POINT_COLUMNS, PointColumn, Value};
+use nnm_io::output::columns::{
+    BranchContext, Column, ColumnFields, Kind, POINT_COLUMNS, PointColumn, Value,
+};
+use nnm_io::output::{RESPONSE_COLUMNS, ResponseContext};
 use numpy::ndarray::Array2;
 use numpy::{Complex64, IntoPyArray};
 use pyo3::prelude::*;
 use pyo3::types::{PyComplex, PyDict, PyList};
 
-/// `(key, name, unit, doc, kind, csv, per_output_dof)` of a point column.
+/// `(key, name, unit, doc, kind, csv, per_output_dof)` of a column of points (a branch's or a
+/// response's).
 pub type ColumnInfo = (
     &'static str,
     &'static str,
@@ -24,21 +29,25 @@ pub type ColumnInfo = (
 /// order: `kind` is one of [`kind_name`]'s words, `name` the CSV header (`<d>` standing for the
 /// dof where `per_output_dof`), `csv` whether `<name>.csv` (and so `Branch.to_pandas()`) has it.
 pub fn point_columns() -> Vec<ColumnInfo> {
-    POINT_COLUMNS
-        .iter()
-        .map(|c| {
-            let per_output_dof = matches!(c.fields, Fields::PerOutputDof(_));
-            (
-                c.key,
-                c.name,
-                c.unit,
-                c.doc,
-                kind_name(c.kind),
-                c.csv,
-                per_output_dof,
-            )
-        })
-        .collect()
+    POINT_COLUMNS.iter().map(column_info).collect()
+}
+
+/// The columns of a response's points as the Python `Response` reads them
+/// (`_nnm.RESPONSE_COLUMNS`), as [`point_columns`] gives a branch's.
+pub fn response_columns() -> Vec<ColumnInfo> {
+    RESPONSE_COLUMNS.iter().map(column_info).collect()
+}
+
+fn column_info<F: ColumnFields>(c: &Column<F>) -> ColumnInfo {
+    (
+        c.key,
+        c.name,
+        c.unit,
+        c.doc,
+        kind_name(c.kind),
+        c.csv,
+        c.per_output_dof(),
+    )
 }
 
 /// The name Python sees for a column's kind.
@@ -52,40 +61,40 @@ fn kind_name(kind: Kind) -> &'static str {
     }
 }
 
-/// One column's array: `float64` for a float (NaN where a point has no value) and for a count
-/// a point may lack, `int64` for one every point has, `bool`, a list of `str` for text (`""`
-/// where a point has none); a column with a field per output dof is `points × output_dofs`.
-fn point_column<'py>(
+/// One column's array from its fields, one list a point: `float64` for a float (NaN where a
+/// point has no value) and for a count a point may lack, `int64` for one every point has,
+/// `bool`, a list of `str` for text (`""` where a point has none); a column with a field per
+/// output dof (`per_output_dof`: their number) is `points × output_dofs`. `name` names the
+/// column in a panic on a field not of the declared kind.
+fn column_array<'py>(
     py: Python<'py>,
-    column: &PointColumn,
-    points: &[BranchPoint],
-    context: &BranchContext<'_>,
+    name: &str,
+    kind: Kind,
+    per_output_dof: Option<usize>,
+    rows: Vec<Vec<Value>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let values = |p: &BranchPoint| column.values(p, context);
-    if let Fields::PerOutputDof(_) = column.fields {
-        let rows: Vec<Vec<f64>> = points
+    if let Some(width) = per_output_dof {
+        let rows: Vec<Vec<f64>> = rows
             .iter()
-            .map(|p| values(p).iter().map(|v| as_float(column, v)).collect())
+            .map(|r| r.iter().map(|v| as_float(name, kind, v)).collect())
             .collect();
-        let width = context.output_dofs.len();
-        let array = Array2::from_shape_fn((points.len(), width), |(k, d)| rows[k][d]);
+        let array = Array2::from_shape_fn((rows.len(), width), |(k, d)| rows[k][d]);
         return Ok(array.into_pyarray(py).into_any());
     }
-    let fields = points.iter().map(|p| {
-        let mut v = values(p);
+    let fields = rows.into_iter().map(|mut v| {
         debug_assert_eq!(v.len(), 1);
         v.swap_remove(0)
     });
-    Ok(match column.kind {
+    Ok(match kind {
         Kind::Float | Kind::OptionalInteger => {
-            let array: Vec<f64> = fields.map(|v| as_float(column, &v)).collect();
+            let array: Vec<f64> = fields.map(|v| as_float(name, kind, &v)).collect();
             array.into_pyarray(py).into_any()
         }
         Kind::Integer => {
             let array: Vec<i64> = fields
                 .map(|v| match v {
                     Value::Integer(n) => n as i64,
-                    other => mismatch(column, &other),
+                    other => mismatch(name, kind, &other),
                 })
                 .collect();
             array.into_pyarray(py).into_any()
@@ -94,7 +103,7 @@ fn point_column<'py>(
             let array: Vec<bool> = fields
                 .map(|v| match v {
                     Value::Bool(b) => b,
-                    other => mismatch(column, &other),
+                    other => mismatch(name, kind, &other),
                 })
                 .collect();
             array.into_pyarray(py).into_any()
@@ -104,7 +113,7 @@ fn point_column<'py>(
                 .map(|v| match v {
                     Value::Text(s) => s,
                     Value::Empty => String::new(),
-                    other => mismatch(column, &other),
+                    other => mismatch(name, kind, &other),
                 })
                 .collect();
             list.into_pyobject(py)?.into_any()
@@ -113,22 +122,50 @@ fn point_column<'py>(
 }
 
 /// A float column's value, or a count's as a float; NaN where the point has none.
-fn as_float(column: &PointColumn, value: &Value) -> f64 {
+fn as_float(name: &str, kind: Kind, value: &Value) -> f64 {
     match value {
         Value::Float(x) => *x,
         Value::Integer(n) => *n as f64,
         Value::Empty => f64::NAN,
-        other => mismatch(column, other),
+        other => mismatch(name, kind, other),
     }
 }
 
-/// A field not of its column's declared kind: a mistake in `POINT_COLUMNS` (its test
-/// `every_field_is_of_its_columns_kind` keeps it out).
-fn mismatch(column: &PointColumn, value: &Value) -> ! {
-    panic!(
-        "point column `{}` is declared {:?} but a point gives {value:?}",
-        column.name, column.kind
-    )
+/// A field not of its column's declared kind: a mistake in `POINT_COLUMNS` or
+/// `RESPONSE_COLUMNS` (their tests `every_field_is_of_its_columns_kind` and
+/// `a_row_has_a_field_per_header_of_its_columns_kind` keep it out).
+fn mismatch(name: &str, kind: Kind, value: &Value) -> ! {
+    panic!("column `{name}` is declared {kind:?} but a point gives {value:?}")
+}
+
+/// A branch's column `column` over `points`.
+fn point_column<'py>(
+    py: Python<'py>,
+    column: &PointColumn,
+    points: &[BranchPoint],
+    context: &BranchContext<'_>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let width = column.per_output_dof().then_some(context.output_dofs.len());
+    let rows = points.iter().map(|p| column.values(p, context)).collect();
+    column_array(py, column.name, column.kind, width, rows)
+}
+
+/// A response's columns over `points`, one array each into `out` under its key.
+pub fn response_columns_into<'py>(
+    py: Python<'py>,
+    points: &[ResponsePoint],
+    context: &ResponseContext<'_>,
+    out: &Bound<'py, PyDict>,
+) -> PyResult<()> {
+    for column in RESPONSE_COLUMNS {
+        let width = column.per_output_dof().then_some(context.output_dofs.len());
+        let rows = points.iter().map(|p| column.values(p, context)).collect();
+        out.set_item(
+            column.key,
+            column_array(py, column.name, column.kind, width, rows)?,
+        )?;
+    }
+    Ok(())
 }
 
 pub fn wave_name(pattern: Option<StandingWave>) -> Option<&'static str> {

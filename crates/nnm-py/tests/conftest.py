@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 import pytest
 
 matplotlib.use("Agg")  # figures render headless
@@ -52,3 +53,35 @@ def cli_error(cli: Path, *args: str) -> str:
     lines = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
     assert len(lines) == 1, result.stderr
     return lines[0].removeprefix("error: ")
+
+
+def check_declared_columns(points, declared, columns, module) -> list:
+    """That the per-point arrays of ``points`` (a Branch, a Response) and its ``to_pandas()``
+    come from the library's one list of columns ``declared`` (the native tuples), read by
+    ``module`` as ``columns``, not from a list of their own: one array per column, of its
+    kind and shape; the arrays a type checker is told of are the columns and the two that are
+    not columns of the points' table; no CSV header that differs from its array's name is
+    spelled out in ``module``; ``to_pandas()`` has the CSV's columns in their order. Returns
+    the columns the CSV has."""
+    import inspect
+
+    keys = [c[0] for c in declared]
+    assert [c.key for c in columns] == keys and len(set(keys)) == len(keys)
+    dtypes = {"float": np.float64, "integer": np.int64, "optional-integer": np.float64, "bool": np.bool_,
+              "text": object}
+    for c in columns:
+        values = getattr(points, c.key)
+        shape = (len(points), len(points.output_dofs)) if c.per_output_dof else (len(points),)
+        assert values.dtype == dtypes[c.kind] and values.shape == shape, c
+        assert c.unit and c.doc and ("<d>" in c.name) == c.per_output_dof, c
+    arrays = {name for name, hint in type(points).__annotations__.items() if hint == "np.ndarray"}
+    assert arrays == set(keys) | {"state0", "multipliers"}
+    source = inspect.getsource(module)
+    for c in columns:
+        if c.name != c.key:
+            assert f'"{c.name.split("<")[0]}' not in source, c.name
+    csv = [c for c in columns if c.csv]
+    header = [name for c in csv for name in (
+        [c.name.replace("<d>", str(d)) for d in points.output_dofs] if c.per_output_dof else [c.name])]
+    assert list(points.to_pandas().columns) == header
+    return csv

@@ -7,12 +7,16 @@ one-line message before anything is computed."""
 
 from __future__ import annotations
 
+import csv
+import subprocess
+
 import numpy as np
 import pytest
 import scipy.linalg
 import scipy.sparse as sp
 
 import nnm
+from conftest import check_declared_columns, cli_error
 
 # A three-dof chain, fixed at one end, with a non-proportional damper between dofs 1 and 2.
 M3 = np.diag([1.0, 2.0, 1.5])
@@ -158,8 +162,12 @@ def test_levels_to_pandas_and_plot(duffing_response):
     # Below the bistability threshold (a ≈ 0.004 for ζ = 0.01) no fold; above it two.
     assert len(levels[0].folds) == 0 and len(levels[1].folds) == 2
     table = levels.to_pandas()
-    assert list(table.columns[:4]) == ["frequency_rad_s", "frequency_hz", "force_amplitude", "peak_x0"]
+    # The columns of `<name>.csv` (which test_response_columns_are_the_declared_ones holds to
+    # the library's list); `curve` tells the levels apart.
+    assert list(table.columns[:6]) == ["curve", "index", "frequency_rad_s", "frequency_hz", "force_amplitude",
+                                       "peak_x0"]
     assert len(table) == len(levels[0]) + len(levels[1])
+    assert list(table["curve"]) == [0] * len(levels[0]) + [1] * len(levels[1])
     ax = levels.plot()
     styles = {line.get_linestyle() for line in ax.get_lines()}
     assert "--" in styles and "-" in styles  # the unstable middle branch is dashed
@@ -233,7 +241,7 @@ def test_engine_order_force_drives_a_travelling_wave():
         ({"modal": [0.01] * 4}, "4 modal damping ratios given, the model has 3 elastic modes"),
         ([[0.1, 0.0, 0.0], [0.0, -0.2, 0.0], [0.0, 0.0, 0.1]], r"not positive semi-definite \(eigenvalue -0.2"),
         ([[0.1, 0.05, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]], "damping matrix is not symmetric"),
-        (np.eye(2), "damping matrix is 2x2, expected 3x3"),
+        (np.eye(2), "the damping matrix is 2x2, the model has 3 dofs"),
         ({"viscous": [1.0]}, "unknown variant `viscous`"),
     ],
 )
@@ -242,16 +250,111 @@ def test_bad_damping(damping, message):
         nnm.Model(M3, K3, damping=damping)
 
 
+def test_a_bad_damping_has_the_job_files_message(cli, write_job):
+    """Python's damping forms are the job file's, read and built by the same functions: the
+    same refusal, word for word (the job's names the file and the key)."""
+    rows = "[[3.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]]"
+    model = f"[model]\nmass = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.5]]\nstiffness = {rows}\n"
+    for toml, damping in [
+        ("{ rayleigh = [-0.1, 0.0] }", {"rayleigh": [-0.1, 0.0]}),
+        ("{ modal = [0.01, 0.01, 0.01, 0.01] }", {"modal": [0.01] * 4}),
+        ("{ matrix = [[0.1, 0.0], [0.0, 0.1]] }", {"matrix": np.eye(2) * 0.1}),
+        ("{ matrix = [[0.1, 0.0, 0.0], [0.0, -0.2, 0.0], [0.0, 0.0, 0.1]] }",
+         {"matrix": [[0.1, 0.0, 0.0], [0.0, -0.2, 0.0], [0.0, 0.0, 0.1]]}),
+    ]:
+        job = write_job(model + f"damping = {toml}\n")
+        expected = cli_error(cli, "modes", job)
+        with pytest.raises(ValueError) as caught:
+            nnm.Model(M3, K3, damping=damping)
+        assert expected == f"{job}: [model] damping: {caught.value}"
+
+
+def test_a_job_files_damping_drives_its_response(tmp_path, write_job):
+    """`Model.from_job` builds `[model] damping` (here a matrix file in the full numbering,
+    reduced with `fixed_dofs`): the response of the job's model is the complex solve with
+    that C."""
+    C = scipy.linalg.block_diag([[1.0]], C3)
+    lines = [f"{i + 1} {j + 1} {float(C[i, j])!r}" for i in range(4) for j in range(i + 1) if C[i, j] != 0]
+    market = "%%MatrixMarket matrix coordinate real symmetric\n" + f"4 4 {len(lines)}\n" + "\n".join(lines) + "\n"
+    mass = np.diag([1.0, *np.diag(M3)]).tolist()
+    stiffness = scipy.linalg.block_diag([[5.0]], K3).tolist()
+    job = write_job(f'[model]\nmass = {mass}\nstiffness = {stiffness}\nfixed_dofs = [0]\n'
+                    'damping = { file = "C.mtx" }\n', **{"C.mtx": market})
+    model = nnm.Model.from_job(job)
+    assert model.damping == {"file": "C.mtx"} and "damped" in repr(model)
+    r = nnm.frequency_response(model, nnm.Force(dofs=[1], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
+    check_linear(r, M3, K3, C3, F3, 1e-9)
+    # The same file from Python (a path relative to the working directory, here absolute).
+    same = nnm.Model(np.diag([1.0, *np.diag(M3)]), scipy.linalg.block_diag([[5.0]], K3), fixed_dofs=[0],
+                     damping={"file": tmp_path / "C.mtx"})
+    r = nnm.frequency_response(same, nnm.Force(dofs=[1], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
+    check_linear(r, M3, K3, C3, F3, 1e-9)
+    # Another damping replaces the job's; none leaves the model undamped.
+    assert model.with_damping({"rayleigh": [0.0, 0.1]}).damping == {"rayleigh": [0.0, 0.1]}
+    assert model.with_damping(None).damping is None
+
+
+def test_response_columns_are_the_declared_ones(duffing_response):
+    """The Response's per-point arrays and `to_pandas()` come from the library's one list of
+    response columns (crates/nnm-io/src/output/response.rs), as a Branch's from its point
+    columns."""
+    from nnm import _nnm, _response
+
+    r = duffing_response
+    csv = check_declared_columns(r, _nnm.RESPONSE_COLUMNS, _response._RESPONSE_COLUMNS, _response)
+    assert {"step"} == {c[0] for c in _nnm.RESPONSE_COLUMNS} - {c.key for c in csv}
+    # Independent of the columns' own code: Hz is rad/s over 2π, a single curve is curve 0.
+    np.testing.assert_allclose(r.frequency_hz * 2 * np.pi, r.frequency, rtol=1e-15)
+    assert (r.curve == 0).all() and list(r.index) == list(range(len(r)))
+
+
+def test_to_pandas_is_the_csv_file_of_nnm_run(cli, write_job, tmp_path):
+    """A job's `[[response]]` and the same curves from Python on the job's model: the same
+    header, and the same values to the last digit (the CSV writes floats exactly) — but for
+    each curve's last row: `nnm run` writes every point as the continuation hands it over,
+    and the library then moves a last point past the end of the sweep onto the end
+    (`land_on_end`), which the returned curve (Python's) has and the CSV does not."""
+    pytest.importorskip("pandas")
+    job = write_job('[model]\nfamily = "duffing"\ndamping = { rayleigh = [0.02, 0.0] }\n'
+                    '[[response]]\nname = "frc"\nforce = { dofs = [0], amplitude = 1.0 }\n'
+                    'frequency_start = 0.5\nfrequency_end = 2.5\namplitudes = [0.002, 0.1]\n')
+    subprocess.run([str(cli), "run", str(job), "--out", str(tmp_path / "out"), "--quiet"], check=True)
+    with (tmp_path / "out" / "frc.csv").open(newline="") as f:
+        header, *rows = list(csv.reader(f))
+    frame = nnm.frequency_response(nnm.Model.from_job(job), nnm.Force(dofs=[0], amplitude=1.0), (0.5, 2.5),
+                                   amplitudes=[0.002, 0.1], progress=False).to_pandas()
+    assert header == list(frame.columns) and len(rows) == len(frame)
+    curve = frame["curve"].to_numpy()
+    last = np.append(curve[1:] != curve[:-1], True)
+    assert last.sum() == 2
+    for j, name in enumerate(header):
+        fields = [row[j] for row in rows]
+        values = frame[name].to_numpy()
+        if values.dtype.kind in "fi":
+            written = np.array([float(v) for v in fields])
+            np.testing.assert_array_equal(written[~last], values[~last].astype(float), err_msg=name)
+        else:
+            assert fields == [str(v).lower() for v in values], name
+    np.testing.assert_array_equal(frame["frequency_rad_s"][last], 2.5)
+    written = np.array([float(row[header.index("frequency_rad_s")]) for row in rows])
+    np.testing.assert_allclose(written[last], 2.5, rtol=1e-6)
+
+
 def test_damping_given_twice_or_on_a_family():
     with pytest.raises(TypeError, match="either"):
         nnm.Model(M3, K3, C=C3, damping={"rayleigh": [0.1, 0.0]})
     with pytest.raises(ValueError, match="non-negative"):
         nnm.duffing(damping={"rayleigh": [-1.0, 0.0]})
-    # Fixed dofs: C in the full numbering is reduced as M and K are.
-    model = nnm.Model(np.diag([1.0, *np.diag(M3)]), scipy.linalg.block_diag([[5.0]], K3),
-                      C=scipy.linalg.block_diag([[1.0]], C3), fixed_dofs=[0])
-    r = nnm.frequency_response(model, nnm.Force(dofs=[1], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
-    check_linear(r, M3, K3, C3, F3, 1e-9)
+    # Fixed dofs: C in the full numbering is reduced as M and K are, as `C=` and as
+    # `{"matrix": C}` alike (the job file's rule); the reduced size is refused.
+    M4, K4 = np.diag([1.0, *np.diag(M3)]), scipy.linalg.block_diag([[5.0]], K3)
+    C4 = scipy.linalg.block_diag([[1.0]], C3)
+    for given in [{"C": C4}, {"C": sp.csr_array(C4)}, {"damping": {"matrix": C4}}]:
+        model = nnm.Model(M4, K4, fixed_dofs=[0], **given)
+        r = nnm.frequency_response(model, nnm.Force(dofs=[1], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
+        check_linear(r, M3, K3, C3, F3, 1e-9)
+    with pytest.raises(ValueError, match=r"the damping matrix is 3x3, the model has 4 dofs \(before `fixed_dofs`\)"):
+        nnm.Model(M4, K4, fixed_dofs=[0], C=C3)
 
 
 @pytest.mark.parametrize(

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import nnm
+from conftest import check_declared_columns
 
 
 @pytest.fixture(scope="module")
@@ -76,34 +77,10 @@ def test_to_pandas_has_the_columns_of_the_csv_file(two_dof_branch) -> None:
 def test_a_branchs_point_columns_are_the_declared_ones(two_dof_branch) -> None:
     """The Branch's per-point arrays and `to_pandas()` come from the library's one list of point
     columns (crates/nnm-io/src/output/columns.rs), not from a list of their own."""
-    import inspect
-
     from nnm import _branch, _nnm
 
-    b = two_dof_branch
+    csv = check_declared_columns(two_dof_branch, _nnm.POINT_COLUMNS, _branch._POINT_COLUMNS, _branch)
     declared = [c[0] for c in _nnm.POINT_COLUMNS]
-    assert [c.key for c in _branch._POINT_COLUMNS] == declared and len(set(declared)) == len(declared)
-    dtypes = {"float": np.float64, "integer": np.int64, "optional-integer": np.float64, "bool": np.bool_,
-              "text": object}
-    for c in _branch._POINT_COLUMNS:
-        values = getattr(b, c.key)
-        shape = (len(b), len(b.output_dofs)) if c.per_output_dof else (len(b),)
-        assert values.dtype == dtypes[c.kind] and values.shape == shape, c
-        assert c.unit and c.doc and ("<d>" in c.name) == c.per_output_dof, c
-    # The arrays a type checker is told of are the declared columns and the two that are not
-    # columns of the points' table.
-    arrays = {name for name, hint in nnm.Branch.__annotations__.items() if hint == "np.ndarray"}
-    assert arrays == set(declared) | {"state0", "multipliers"}
-    # No hand list left: no CSV header that differs from its array's name is spelled out.
-    source = inspect.getsource(_branch)
-    for c in _branch._POINT_COLUMNS:
-        if c.name != c.key:
-            assert f'"{c.name.split("<")[0]}' not in source, c.name
-    # to_pandas() has the CSV's columns, in their order; the others only as arrays.
-    csv = [c for c in _branch._POINT_COLUMNS if c.csv]
-    header = [name for c in csv for name in (
-        [c.name.replace("<d>", str(d)) for d in b.output_dofs] if c.per_output_dof else [c.name])]
-    assert list(b.to_pandas().columns) == header
     assert {"energy_slope", "reciprocity_defect"} <= set(declared) - {c.key for c in csv}
 
 

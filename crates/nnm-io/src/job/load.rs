@@ -241,6 +241,8 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
         branches,
         default_settings,
         damping,
+        damping_spec: file.model.damping,
+        fixed_dofs: fixed,
         responses,
     })
 }

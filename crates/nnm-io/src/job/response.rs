@@ -36,7 +36,8 @@ pub const RESPONSE_KEYS: [&str; 10] = [
     "output_dofs",
 ];
 
-/// The settings a `[[response]]` table takes (`nnm::forced::ResponseSettings`, flat).
+/// The settings a `[[response]]` table takes: the fields of `nnm::forced::ResponseSettings`
+/// as serde reads them, flattened groups included (a test holds the list to the struct).
 pub const RESPONSE_SETTINGS_KEYS: [&str; 12] = [
     "tolerance",
     "initial_step",
@@ -93,31 +94,20 @@ pub fn damping_matrix(
     base: &Path,
 ) -> Result<Matrix, String> {
     let full = fixed.map_or(structure.dofs(), FixedDofs::full_dofs);
-    let given = |m: Matrix| -> Result<Matrix, String> {
-        if m.nrows() != full {
-            return Err(format!(
-                "the damping matrix is {0}x{0}, the model has {full} dofs{1}",
-                m.nrows(),
-                if fixed.is_some() {
-                    " (before `fixed_dofs`)"
-                } else {
-                    ""
-                }
-            ));
-        }
-        match fixed {
-            Some(fixed) => fixed.reduce_matrix("damping", &m).map_err(model_message),
-            None => Ok(m),
-        }
-    };
-    let c = match spec {
-        DampingSpec::Rayleigh(ab) => Damping::Rayleigh(*ab)
-            .matrix(structure)
-            .map_err(|e| e.to_string())?,
-        DampingSpec::Modal(ratios) => Damping::Modal(ratios.clone())
-            .matrix(structure)
-            .map_err(|e| e.to_string())?,
-        DampingSpec::Matrix(rows) => given(
+    match spec {
+        DampingSpec::Rayleigh(ab) => checked_damping(
+            Damping::Rayleigh(*ab)
+                .matrix(structure)
+                .map_err(|e| e.to_string())?,
+            structure,
+        ),
+        DampingSpec::Modal(ratios) => checked_damping(
+            Damping::Modal(ratios.clone())
+                .matrix(structure)
+                .map_err(|e| e.to_string())?,
+            structure,
+        ),
+        DampingSpec::Matrix(rows) => given_damping_matrix(
             load_matrix(
                 &MatrixSpec::Rows(rows.clone()),
                 "damping",
@@ -129,8 +119,10 @@ pub fn damping_matrix(
                 super::JobError::Invalid { message, .. } => message,
                 other => other.to_string(),
             })?,
-        )?,
-        DampingSpec::File(file) => given(
+            structure,
+            fixed,
+        ),
+        DampingSpec::File(file) => given_damping_matrix(
             load_matrix(
                 &MatrixSpec::File { file: file.clone() },
                 "damping",
@@ -139,9 +131,44 @@ pub fn damping_matrix(
                 Path::new(""),
             )
             .map_err(|e| e.to_string())?,
-        )?,
+            structure,
+            fixed,
+        ),
+    }
+}
+
+/// A damping matrix given whole (a `matrix` or `file` of `[model] damping`, a matrix from the
+/// Python bindings) in the model's full numbering, as `mass` and `stiffness` are: its size
+/// checked, the rows and columns of the `fixed` dofs removed, then checked as
+/// [`damping_matrix`] checks every `C`.
+pub fn given_damping_matrix(
+    c: Matrix,
+    structure: &Structure,
+    fixed: Option<&FixedDofs>,
+) -> Result<Matrix, String> {
+    let full = fixed.map_or(structure.dofs(), FixedDofs::full_dofs);
+    if c.nrows() != full || c.ncols() != full {
+        return Err(format!(
+            "the damping matrix is {}x{}, the model has {full} dofs{}",
+            c.nrows(),
+            c.ncols(),
+            if fixed.is_some() {
+                " (before `fixed_dofs`)"
+            } else {
+                ""
+            }
+        ));
+    }
+    let c = match fixed {
+        Some(fixed) => fixed.reduce_matrix("damping", &c).map_err(model_message)?,
+        None => c,
     };
-    // `C` is checked where the forced system is made: with a unit force on dof 0 here.
+    checked_damping(c, structure)
+}
+
+/// `C` checked (finite, symmetric, positive semi-definite) where the forced system is made:
+/// with a unit force on dof 0 here.
+fn checked_damping(c: Matrix, structure: &Structure) -> Result<Matrix, String> {
     let mut unit = vec![0.0; structure.dofs()];
     unit[0] = 1.0;
     ForcedSystem::new(structure, &c, HarmonicForce::cosine(unit)).map_err(model_message)?;
@@ -165,19 +192,10 @@ pub fn response_body(
                 .into(),
         );
     };
-    if let Some(key) = table.keys().find(|k| {
-        !RESPONSE_KEYS.contains(&k.as_str()) && !RESPONSE_SETTINGS_KEYS.contains(&k.as_str())
-    }) {
-        let expected: Vec<String> = RESPONSE_KEYS[1..]
-            .iter()
-            .chain(&RESPONSE_SETTINGS_KEYS)
-            .map(|k| format!("`{k}`"))
-            .collect();
-        return Err(format!(
-            "unknown field `{key}`, expected one of {}",
-            expected.join(", ")
-        ));
-    }
+    known_keys(
+        &table,
+        RESPONSE_KEYS[1..].iter().chain(&RESPONSE_SETTINGS_KEYS),
+    )?;
     let force = table
         .remove("force")
         .ok_or("missing `force` (e.g. `force = { dofs = [0], amplitude = 1.0 }`)")?;
@@ -284,15 +302,8 @@ pub fn response_body(
             dofs
         }
     };
-    // Over a response's own defaults: deserialized alone, the flattened continuation settings
-    // would take a branch's (whose steps are relative to a modal amplitude, not absolute).
-    let mut merged =
-        toml::Table::try_from(ResponseSettings::default()).expect("settings are a table");
-    merged.extend(table);
-    let settings: ResponseSettings = toml::Value::Table(merged)
-        .try_into()
-        .map_err(|e: toml::de::Error| e.message().trim().to_string())?;
-    check_settings(&settings)?;
+    // What is left are the settings.
+    let settings = response_settings(table)?;
     Ok(ResponseBody {
         force: force.shape,
         curves,
@@ -480,6 +491,45 @@ fn read_vector(file: &Path) -> Result<Vec<f64>, String> {
             v
         }
     })
+}
+
+/// A response's settings from their keys ([`RESPONSE_SETTINGS_KEYS`]; the job file's
+/// `[[response]]` keys that are settings, the Python bindings' keyword arguments), merged over
+/// the response's own defaults and checked as a branch's are (the same ranges and messages).
+/// An unknown key is refused with the list of the known ones.
+pub fn response_settings(table: toml::Table) -> Result<ResponseSettings, String> {
+    known_keys(&table, RESPONSE_SETTINGS_KEYS.iter())?;
+    // Over a response's own defaults: deserialized alone, the flattened continuation settings
+    // would take a branch's (whose steps are relative to a modal amplitude, not absolute).
+    let mut merged =
+        toml::Table::try_from(ResponseSettings::default()).expect("settings are a table");
+    merged.extend(table);
+    let settings: ResponseSettings = toml::Value::Table(merged)
+        .try_into()
+        .map_err(|e: toml::de::Error| e.message().trim().to_string())?;
+    check_settings(&settings)?;
+    Ok(settings)
+}
+
+/// Refuses the first key of `table` that is not one of `known`, listing them (as serde words
+/// an unknown field).
+fn known_keys<'a>(
+    table: &toml::Table,
+    known: impl Iterator<Item = &'a &'static str> + Clone,
+) -> Result<(), String> {
+    match table
+        .keys()
+        .find(|k| !known.clone().any(|known| known == k))
+    {
+        None => Ok(()),
+        Some(key) => {
+            let expected: Vec<String> = known.map(|k| format!("`{k}`")).collect();
+            Err(format!(
+                "unknown field `{key}`, expected one of {}",
+                expected.join(", ")
+            ))
+        }
+    }
 }
 
 /// The settings checked as a branch's are (the same ranges and messages).

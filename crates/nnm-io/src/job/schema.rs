@@ -173,7 +173,7 @@ pub(super) enum MatrixSpec {
 /// (ratios of the lowest elastic modes), `{ matrix = [[...]] }` or `{ file = "C.mtx" }` (in
 /// the model's full numbering, as `mass` and `stiffness`). Turned into `C` by
 /// [`super::damping_matrix`].
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum DampingSpec {
     Rayleigh([f64; 2]),

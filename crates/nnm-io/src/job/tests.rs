@@ -1278,3 +1278,54 @@ fn response_files_do_not_collide() {
         "job.toml: response `fep` would write fep.png over the run's own fep.png"
     );
 }
+
+/// [`RESPONSE_SETTINGS_KEYS`] are exactly the fields of `ResponseSettings` as serde writes
+/// them (flattened groups included), none of a branch's alone.
+#[test]
+fn response_settings_keys_are_the_structs_fields() {
+    let fields: std::collections::BTreeSet<String> =
+        toml::Table::try_from(ResponseSettings::default())
+            .unwrap()
+            .keys()
+            .cloned()
+            .collect();
+    let keys: std::collections::BTreeSet<String> = RESPONSE_SETTINGS_KEYS
+        .iter()
+        .map(|k| k.to_string())
+        .collect();
+    assert_eq!(keys, fields);
+    assert!(!keys.contains("energy_max"));
+}
+
+/// The settings alone (as the Python bindings give them): a misspelt key is refused listing
+/// the settings; values out of range with the branch settings' messages; given values are
+/// used and the others keep the response's own defaults (not a branch's).
+#[test]
+fn response_settings_are_checked_and_keep_the_response_defaults() {
+    let table = |text: &str| -> toml::Table { text.parse().unwrap() };
+    let e = response_settings(table("tolerence = 1e-9")).unwrap_err();
+    assert!(
+        e.starts_with("unknown field `tolerence`, expected one of `tolerance`, "),
+        "{e}"
+    );
+    assert!(!e.contains("`force`"), "{e}");
+    let e = response_settings(table("tolerance = 0.1")).unwrap_err();
+    assert!(e.contains("tolerance 0.1 is too loose"), "{e}");
+    let e = response_settings(table("max_points = 0")).unwrap_err();
+    assert!(
+        e.contains("max_points and max_iterations must be at least 1"),
+        "{e}"
+    );
+    let e = response_settings(table("samples = 4")).unwrap_err();
+    assert!(e.contains("samples must be at least 8"), "{e}");
+    let s = response_settings(table("max_points = 7\ntolerance = 1e-10")).unwrap();
+    assert_eq!(s.max_points, 7);
+    assert_eq!(s.continuation.tolerance, 1e-10);
+    // 0.02, not a branch's 0.1: serde alone would fill the flattened group from its own
+    // default.
+    assert_eq!(s.continuation.initial_step, 0.02);
+    assert_eq!(
+        s.continuation.initial_step,
+        ResponseSettings::default().continuation.initial_step
+    );
+}

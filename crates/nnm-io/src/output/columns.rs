@@ -72,36 +72,64 @@ pub enum Fields {
     PerOutputDof(fn(&BranchPoint, usize) -> Value),
 }
 
-/// One column of a branch's points.
+/// One column of a table of points — a branch's ([`PointColumn`]) or a response's
+/// (`super::response::ResponseColumn`) — whose fields `F` says how to compute.
 #[derive(Clone, Copy)]
-pub struct PointColumn {
+pub struct Column<F> {
     /// The CSV header (`peak_x<d>` for one field per output dof: `peak_x3`, ...).
     pub name: &'static str,
     /// The unit, as docs/output.md gives it (`—` for a pure number or a word).
     pub unit: &'static str,
     /// What the value is, in a line.
     pub doc: &'static str,
-    /// The name of the column's array in the Python binding's `Branch` (points × output dofs
-    /// for [`Fields::PerOutputDof`]).
+    /// The name of the column's array in the Python binding (`Branch`, `Response`; points ×
+    /// output dofs for a column with a field per output dof).
     pub key: &'static str,
     pub kind: Kind,
-    /// Whether `<name>.csv` has the column; one it leaves out is in the Python `Branch` (and,
-    /// as a field of the point, in `<name>.json`'s record).
+    /// Whether the CSV file has the column; one it leaves out is in the Python binding's
+    /// arrays (and, as a field of the point, in the JSON's record).
     pub csv: bool,
-    pub fields: Fields,
+    pub fields: F,
 }
+
+/// Whether a column's fields are one per output dof (else one).
+pub trait ColumnFields {
+    fn per_output_dof(&self) -> bool;
+}
+
+impl<F: ColumnFields> Column<F> {
+    /// Whether the column has one field per output dof.
+    pub fn per_output_dof(&self) -> bool {
+        self.fields.per_output_dof()
+    }
+
+    /// The column's header fields for these output dofs: its name, or one per output dof
+    /// with `<d>` replaced by the dof.
+    pub fn header_names(&self, output_dofs: &[usize]) -> Vec<String> {
+        if self.per_output_dof() {
+            output_dofs
+                .iter()
+                .map(|d| self.name.replace("<d>", &d.to_string()))
+                .collect()
+        } else {
+            vec![self.name.to_string()]
+        }
+    }
+}
+
+impl ColumnFields for Fields {
+    fn per_output_dof(&self) -> bool {
+        matches!(self, Fields::PerOutputDof(_))
+    }
+}
+
+/// One column of a branch's points.
+pub type PointColumn = Column<Fields>;
 
 impl PointColumn {
     /// The column's header fields for a branch with these output dofs.
     pub fn headers(&self, context: &BranchContext<'_>) -> Vec<String> {
-        match self.fields {
-            Fields::One(_) => vec![self.name.to_string()],
-            Fields::PerOutputDof(_) => context
-                .output_dofs
-                .iter()
-                .map(|d| self.name.replace("<d>", &d.to_string()))
-                .collect(),
-        }
+        self.header_names(context.output_dofs)
     }
 
     /// The column's fields at point `p`, one per header.

@@ -30,8 +30,8 @@ pub mod response;
 
 pub use response::{
     CurveRecord, RESPONSE_COLUMNS, RESPONSE_EVENTS_HEADER, RESPONSE_FILE_SUFFIXES, ResponseColumn,
-    ResponseContext, ResponseFields, ResponseWriter, response_csv_header, response_csv_record,
-    response_files, stop_name,
+    ResponseContext, ResponseFields, ResponseWriter, response_csv_columns, response_csv_header,
+    response_csv_record, response_files, stop_name,
 };
 
 /// Why a result file could not be written.

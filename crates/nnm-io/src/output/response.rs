@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use nnm::forced::{ForcedStats, ResponseCurve, ResponseEvent, ResponsePoint};
 use serde::Serialize;
 
-use super::columns::{Kind, Value};
+use super::columns::{Column, ColumnFields, Kind, Value};
 use super::{CsvFile, Number, OutputError, output_error};
 
 /// What the columns of a response need besides its points.
@@ -33,30 +33,19 @@ pub enum ResponseFields {
     PerOutputDof(fn(&ResponsePoint, usize) -> Value),
 }
 
-/// One column of `<name>.csv` of a response.
-#[derive(Clone, Copy)]
-pub struct ResponseColumn {
-    /// The CSV header (`peak_x<d>`: one per output dof).
-    pub name: &'static str,
-    /// The unit, as docs/output.md gives it (`—` for a pure number or a word).
-    pub unit: &'static str,
-    /// What the value is, in a line.
-    pub doc: &'static str,
-    pub kind: Kind,
-    pub fields: ResponseFields,
+impl ColumnFields for ResponseFields {
+    fn per_output_dof(&self) -> bool {
+        matches!(self, ResponseFields::PerOutputDof(_))
+    }
 }
+
+/// One column of a response's points.
+pub type ResponseColumn = Column<ResponseFields>;
 
 impl ResponseColumn {
     /// The column's header fields.
     pub fn headers(&self, context: &ResponseContext<'_>) -> Vec<String> {
-        match self.fields {
-            ResponseFields::One(_) => vec![self.name.to_string()],
-            ResponseFields::PerOutputDof(_) => context
-                .output_dofs
-                .iter()
-                .map(|d| self.name.replace("<d>", &d.to_string()))
-                .collect(),
-        }
+        self.header_names(context.output_dofs)
     }
 
     /// The column's fields at point `p`.
@@ -70,48 +59,61 @@ impl ResponseColumn {
     }
 }
 
-/// The columns of a response's points, in the order of `<name>.csv`.
+/// The columns of a response's points; `<name>.csv` has those marked [`ResponseColumn::csv`],
+/// in this order.
 pub const RESPONSE_COLUMNS: &[ResponseColumn] = &[
     ResponseColumn {
         name: "curve",
         unit: "—",
         doc: "the curve (0 first): one per force level of `amplitudes`, in their order",
+        key: "curve",
         kind: Kind::Integer,
+        csv: true,
         fields: ResponseFields::One(|_, c| Value::Integer(c.curve)),
     },
     ResponseColumn {
         name: "index",
         unit: "—",
         doc: "position on the curve (0 first: the linear response at its start)",
+        key: "index",
         kind: Kind::Integer,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Integer(p.index)),
     },
     ResponseColumn {
         name: "frequency_rad_s",
         unit: "rad/s",
         doc: "the forcing frequency Ω",
+        key: "frequency",
         kind: Kind::Float,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Float(p.frequency)),
     },
     ResponseColumn {
         name: "frequency_hz",
         unit: "Hz",
         doc: "Ω / 2π",
+        key: "frequency_hz",
         kind: Kind::Float,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Float(p.frequency / std::f64::consts::TAU)),
     },
     ResponseColumn {
         name: "force_amplitude",
         unit: "force",
         doc: "the factor `a` on the force shape (the level of the curve, or the continued amplitude)",
+        key: "force_amplitude",
         kind: Kind::Float,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Float(p.force_amplitude)),
     },
     ResponseColumn {
         name: "peak_x<d>",
         unit: "length",
         doc: "`max_t |x_d(t)|` over the forcing period, one column per output dof",
+        key: "peaks",
         kind: Kind::Float,
+        csv: true,
         fields: ResponseFields::PerOutputDof(|p, k| {
             p.peaks.get(k).map_or(Value::Empty, |&x| Value::Float(x))
         }),
@@ -120,65 +122,91 @@ pub const RESPONSE_COLUMNS: &[ResponseColumn] = &[
         name: "harmonic_amplitude",
         unit: "length",
         doc: "amplitude `A` of the first harmonic `A cos(Ωt − φ)` of the first forced dof",
+        key: "harmonic_amplitude",
         kind: Kind::Float,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Float(p.harmonic_amplitude)),
     },
     ResponseColumn {
         name: "phase_lag_rad",
         unit: "rad",
         doc: "its phase lag `φ` behind `cos Ωt`, in (−π/2, 3π/2]",
+        key: "phase_lag",
         kind: Kind::Float,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Float(p.phase_lag)),
     },
     ResponseColumn {
         name: "stable",
         unit: "—",
         doc: "every Floquet multiplier inside the unit circle",
+        key: "stable",
         kind: Kind::Bool,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Bool(p.stable)),
     },
     ResponseColumn {
         name: "max_floquet_modulus",
         unit: "—",
         doc: "the largest `|μ|` (above 1: unstable)",
+        key: "max_floquet_modulus",
         kind: Kind::Float,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Float(p.max_floquet_modulus)),
     },
     ResponseColumn {
         name: "relative_residual",
         unit: "—",
         doc: "the converged `‖z(2π/Ω) − z0‖ / ‖z0‖` in the scaled unknowns",
+        key: "relative_residual",
         kind: Kind::Float,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Float(p.relative_residual)),
     },
     ResponseColumn {
         name: "iterations",
         unit: "—",
         doc: "Newton iterations of the point's corrector",
+        key: "iterations",
         kind: Kind::Integer,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Integer(p.iterations)),
     },
     ResponseColumn {
         name: "integration_steps",
         unit: "—",
         doc: "time steps of one forcing period",
+        key: "integration_steps",
         kind: Kind::Integer,
+        csv: true,
         fields: ResponseFields::One(|p, _| Value::Integer(p.integration_steps)),
+    },
+    ResponseColumn {
+        name: "step",
+        unit: "—",
+        doc: "the arclength step that led to the point, in the scaled unknowns",
+        key: "step",
+        kind: Kind::Float,
+        csv: false,
+        fields: ResponseFields::One(|p, _| Value::Float(p.step)),
     },
 ];
 
+/// The columns `<name>.csv` has, in order.
+pub fn response_csv_columns() -> impl Iterator<Item = &'static ResponseColumn> {
+    RESPONSE_COLUMNS.iter().filter(|c| c.csv)
+}
+
 /// The header of a response's `<name>.csv`.
 pub fn response_csv_header(context: &ResponseContext<'_>) -> Vec<String> {
-    RESPONSE_COLUMNS
-        .iter()
+    response_csv_columns()
         .flat_map(|c| c.headers(context))
         .collect()
 }
 
 /// One row of a response's `<name>.csv`.
 pub fn response_csv_record(p: &ResponsePoint, context: &ResponseContext<'_>) -> Vec<String> {
-    RESPONSE_COLUMNS
-        .iter()
+    response_csv_columns()
         .flat_map(|c| c.values(p, context))
         .map(|v| v.csv_field())
         .collect()
@@ -514,7 +542,7 @@ mod tests {
         let section = &docs[docs
             .find("### `<response>.csv`")
             .expect("the response section")..];
-        for c in RESPONSE_COLUMNS {
+        for c in response_csv_columns() {
             let row = format!("| `{}` | {} |", c.name, c.unit);
             assert!(section.contains(&row), "docs/output.md has no row `{row}`");
         }

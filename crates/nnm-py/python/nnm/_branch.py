@@ -56,12 +56,13 @@ class Motion(NamedTuple):
 
 
 class PointColumn(NamedTuple):
-    """A column of a branch's points as the library declares it, once for the CSV file and the
-    :class:`Branch` (crates/nnm-io/src/output/columns.rs): ``key`` is the Branch's array,
+    """A column of a branch's (or a response's) points as the library declares it, once for
+    the CSV file and the :class:`Branch` (crates/nnm-io/src/output/columns.rs; a
+    :class:`nnm.Response`'s in crates/nnm-io/src/output/response.rs): ``key`` is the array,
     ``name`` the CSV header (``<d>`` standing for the output dof when ``per_output_dof``: one
     field each, the array points × len(``output_dofs``)), ``kind`` ``"float"``, ``"integer"``,
     ``"optional-integer"`` (float, NaN where a point has none), ``"bool"`` or ``"text"``, and
-    ``csv`` whether ``<branch>.csv`` (and :meth:`Branch.to_pandas`) has it."""
+    ``csv`` whether the CSV file (and ``to_pandas()``) has it."""
 
     key: str
     name: str
@@ -226,19 +227,7 @@ class Branch:
 
     def to_pandas(self) -> "pandas.DataFrame":
         """The points as a DataFrame with the columns of ``<branch>.csv``."""
-        import pandas
-
-        columns = {}
-        for column in _POINT_COLUMNS:
-            if not column.csv:
-                continue
-            values = getattr(self, column.key)
-            if column.per_output_dof:
-                for k, dof in enumerate(self.output_dofs):
-                    columns[column.name.replace("<d>", str(dof))] = values[:, k]
-            else:
-                columns[column.name] = values
-        return pandas.DataFrame(columns)
+        return _csv_frame(self, _POINT_COLUMNS)
 
     def plot(self, ax: "matplotlib.axes.Axes | None" = None, **kwargs: Any) -> "matplotlib.axes.Axes":
         """The frequency–energy plot of this branch (see :func:`nnm.plot.fep`)."""
@@ -247,9 +236,30 @@ class Branch:
         return plot.fep([self], ax=ax, **kwargs)
 
 
-Branch.__doc__ = (Branch.__doc__ or "") + "\n    Point columns (array, unit: meaning):\n\n" + "".join(
-    f"    - ``{c.key}`` ({c.unit}): {c.doc}\n" for c in _POINT_COLUMNS
-)
+def _csv_frame(points: Any, columns: list[PointColumn]) -> "pandas.DataFrame":
+    """The arrays of ``points`` (a Branch, a Response) that the CSV file has, as its columns:
+    one per output dof for a column with a field each."""
+    import pandas
+
+    frame = {}
+    for column in columns:
+        if not column.csv:
+            continue
+        values = getattr(points, column.key)
+        if column.per_output_dof:
+            for k, dof in enumerate(points.output_dofs):
+                frame[column.name.replace("<d>", str(dof))] = values[:, k]
+        else:
+            frame[column.name] = values
+    return pandas.DataFrame(frame)
+
+
+def _columns_doc(columns: list[PointColumn]) -> str:
+    """The columns listed for a class's docstring."""
+    return "".join(f"    - ``{c.key}`` ({c.unit}): {c.doc}\n" for c in columns)
+
+
+Branch.__doc__ = (Branch.__doc__ or "") + "\n    Point columns (array, unit: meaning):\n\n" + _columns_doc(_POINT_COLUMNS)
 
 
 def _options(

@@ -39,13 +39,16 @@ class Model:
 
     Damping, for forced responses (:func:`nnm.frequency_response`): ``C=`` a matrix (numpy,
     scipy.sparse or nested lists, symmetric positive semi-definite, in the numbering of ``M``
-    and ``K``), or ``damping=`` one of the job file's forms: ``{"rayleigh": [α, β]}``
-    (``C = αM + βK``), ``{"modal": [ζ1, ζ2, ...]}`` (ratios of the lowest elastic modes),
-    ``{"matrix": C}`` or ``{"file": "C.mtx"}`` (Matrix Market); the families (:func:`duffing`, ...)
-    take the same ``damping=`` keyword. The damping is kept beside the
-    conservative model (branches and modes ignore it); :meth:`with_damping` gives the same
-    model with another. A negative, non-finite or indefinite damping raises ``ValueError``
-    with the library's message (naming the entry or eigenvalue).
+    and ``K``: before ``fixed_dofs``, whose rows and columns it loses), or ``damping=`` one
+    of the job file's ``[model] damping`` forms, read and built by the same functions:
+    ``{"rayleigh": [α, β]}`` (``C = αM + βK``), ``{"modal": [ζ1, ζ2, ...]}`` (ratios of the
+    lowest elastic modes), ``{"matrix": C}`` (as ``C=``) or ``{"file": "C.mtx"}`` (Matrix
+    Market, relative to the working directory); the families (:func:`duffing`, ...) take the
+    same ``damping=`` keyword, and a job file's model (:meth:`from_job`) has its own. The
+    damping is kept beside the conservative model (branches and modes ignore it);
+    :meth:`with_damping` gives the same model with another. A negative, non-finite or
+    indefinite damping raises ``ValueError`` with the job file's message (naming the entry or
+    eigenvalue).
 
     Other constructors: :meth:`from_job` and the families :func:`bladed_disk`,
     :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`, :func:`von_karman_beam`.
@@ -88,10 +91,7 @@ class Model:
         )
         if C is not None and damping is not None:
             raise TypeError("give the damping either as `C` (a matrix) or as `damping`, not both")
-        spec = C if C is not None else damping
-        if fixed and spec is not None and not isinstance(spec, dict):
-            spec = _reduced(spec, fixed, np.shape(M)[0])
-        self._set_damping(spec)
+        self._set_damping(C if C is not None else damping)
 
     def _set_damping(self, damping: Any) -> None:
         """Builds and checks ``C`` for this model (the library's forms and messages) and keeps
@@ -109,15 +109,17 @@ class Model:
 
     @property
     def damping(self) -> Any:
-        """The damping as given (a dict form, a matrix), or ``None`` (undamped)."""
+        """The damping as given (a dict form, a matrix; a job file's as the file writes it),
+        or ``None`` (undamped)."""
         return self._damping_spec
 
     @classmethod
     def _wrap(cls, native: Any) -> "Model":
         model = cls.__new__(cls)
         model._native = native
-        model._damping = None
-        model._damping_spec = None
+        # A job file's `[model] damping`, built when the file was read.
+        job_damping = native.job_damping()
+        model._damping_spec, model._damping = (None, None) if job_damping is None else job_damping
         return model
 
     @classmethod
@@ -125,7 +127,8 @@ class Model:
         """The model of a job file (TOML), read exactly as ``nnm run`` reads it (Matrix
         Market and tensor files resolved relative to it). Its branches are in
         :attr:`branches`; ``nnm.backbone(model, branch=NAME)`` runs one as ``nnm run``
-        would.
+        would. Its ``[model] damping``, if any, is the model's damping (:attr:`damping`), which
+        :func:`nnm.frequency_response` uses.
 
         ``overrides`` replaces keys of the file, as a parameter study varies them: dotted
         keys ``"model.KEY"``, ``"settings.KEY"`` or ``"branch.NAME.KEY"`` with the values
@@ -193,30 +196,19 @@ class Model:
 
 
 def _damping_form(damping: Any) -> Any:
-    """A damping as the native module takes it: the dict of a named form, or a matrix
-    (``_matrix``); ``{"matrix": C}`` and ``{"file": path}`` become the matrix."""
+    """A damping as the native module takes it: a dict of one of the job file's forms, which
+    the library reads and builds as the job file's ``[model] damping``, or a matrix
+    (``_matrix``: numpy, scipy.sparse or nested lists) for ``C=``, a bare matrix and
+    ``{"matrix": C}``."""
     if isinstance(damping, dict):
         if set(damping) == {"matrix"}:
             return _matrix("damping", damping["matrix"])
-        if set(damping) == {"file"}:
-            import scipy.io
-            import scipy.sparse
-
-            return _matrix("damping", scipy.sparse.csr_array(scipy.io.mmread(os.fspath(damping["file"]))))
-        return {k: [float(x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) else v for k, v in damping.items()}
+        return {
+            k: os.fspath(v) if isinstance(v, os.PathLike) else
+            [float(x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) else v
+            for k, v in damping.items()
+        }
     return _matrix("damping", damping)
-
-
-def _reduced(c: Any, fixed: Sequence[int], n: int) -> Any:
-    """A damping matrix of the full numbering without the rows and columns of the fixed dofs,
-    as ``M`` and ``K`` are reduced (a matrix of another size is left for the library's size
-    check)."""
-    if np.shape(c) != (n, n):
-        return c
-    keep = np.setdiff1d(np.arange(n), np.asarray(fixed, dtype=int))
-    if type(c).__module__.startswith("scipy.sparse"):
-        return c.tocsr()[keep][:, keep]
-    return np.asarray(c)[np.ix_(keep, keep)]
 
 
 @dataclass(frozen=True)

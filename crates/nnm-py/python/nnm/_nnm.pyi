@@ -8,8 +8,10 @@ FAMILIES: list[str]
 # (key, name, unit, doc, kind, csv, per_output_dof) of each point column, in declaration order.
 POINT_COLUMNS: list[tuple[str, str, str, str, str, bool, bool]]
 __version__: str
-# The keys of a forced response's settings (nnm::forced::ResponseSettings as serde writes them).
+# The keys of a forced response's settings (nnm_io::job::RESPONSE_SETTINGS_KEYS).
 RESPONSE_SETTINGS_KEYS: list[str]
+# The columns of a response's points, as POINT_COLUMNS for a branch's.
+RESPONSE_COLUMNS: list[tuple[str, str, str, str, str, bool, bool]]
 
 def family_defaults(family: str) -> dict[str, Any]: ...
 
@@ -36,6 +38,7 @@ class NativeModel:
     def cyclic(self) -> tuple[int, int] | None: ...
     @property
     def branch_names(self) -> list[str]: ...
+    def job_damping(self) -> tuple[dict[str, Any], NativeDamping] | None: ...
     def branch_mode(self, name: str) -> tuple[str, str | None] | None: ...
     def matrix(self, name: str) -> np.ndarray | tuple[int, np.ndarray, np.ndarray, np.ndarray]: ...
     def modes(self) -> dict[str, Any]: ...
@@ -67,6 +70,7 @@ def response(
     sweep: tuple[str, float, float, float],
     output_dofs: list[int] | None,
     settings: dict[str, Any],
+    curve: int = 0,
     callback: Callable[[int, float, float, bool], Any] | None = None,
 ) -> dict[str, Any]: ...
 def forced_motion(

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 import numpy as np
 
 from . import _checks, _nnm
-from ._branch import Motion
+from ._branch import Motion, PointColumn, _columns_doc, _csv_frame
 from ._errors import ContinuationError
 
 if TYPE_CHECKING:
@@ -139,18 +139,21 @@ class ResponseEvent:
         return float(self.peaks[0]) if len(self.peaks) else float("nan")
 
 
+# A Response's point columns, in the order `<response>.csv` has them.
+_RESPONSE_COLUMNS = [PointColumn(*c) for c in _nnm.RESPONSE_COLUMNS]
+
+
 class Response:
     """A forced response curve: one entry per converged point, in continuation order (the
     curve may run backwards in the parameter between folds).
 
-    Arrays (numpy, one entry per point): ``frequency`` (Ω, rad/s), ``frequency_hz``,
-    ``force_amplitude``, ``peaks`` (points × len(``output_dofs``): ``max_t |x_d(t)|`` over the
-    period), ``harmonic_amplitude`` and ``phase_lag`` (the first harmonic ``A cos(Ωt − φ)`` of
-    ``phase_dof``, the first forced dof; φ in radians), ``stable`` (every Floquet multiplier
-    inside the unit circle), ``max_floquet_modulus``, ``multipliers`` (points × 2n complex, by
-    decreasing modulus), ``state0`` (points × 2n: ``[x; v]`` at ``t = 0``, where the force's
-    phase is 0), ``relative_residual``, ``iterations``, ``step``, ``integration_steps``,
-    ``index``. Also ``events`` (list of :class:`ResponseEvent`), ``parameter``
+    Arrays (numpy, one entry per point): the library's response columns, listed with their
+    units at the end of this text (``frequency`` in rad/s, ``peaks`` points ×
+    len(``output_dofs``), ``harmonic_amplitude`` and ``phase_lag`` of the first harmonic
+    ``A cos(Ωt − φ)`` of ``phase_dof``, the first forced dof, ``curve`` the force level's
+    place among ``amplitudes``), and ``multipliers`` (points × 2n complex, by decreasing
+    modulus) and ``state0`` (points × 2n: ``[x; v]`` at ``t = 0``, where the force's phase
+    is 0). Also ``events`` (list of :class:`ResponseEvent`), ``parameter``
     (``"frequency"`` or ``"amplitude"``: what was continued), ``force`` (the
     :class:`Force`, at the curve's amplitude), ``stop`` (why it ended, in words),
     ``stop_kind`` (``"end"``, ``"start"``, ``"max-points"``, ``"callback"``,
@@ -158,20 +161,25 @@ class Response:
     ``wall_time``.
     """
 
+    # The annotations are for type checkers, which cannot read the library's list; a test holds
+    # the arrays among them to the declared columns.
+
+    curve: np.ndarray
+    index: np.ndarray
     frequency: np.ndarray
+    frequency_hz: np.ndarray
     force_amplitude: np.ndarray
     peaks: np.ndarray
     harmonic_amplitude: np.ndarray
     phase_lag: np.ndarray
     stable: np.ndarray
     max_floquet_modulus: np.ndarray
-    multipliers: np.ndarray
-    state0: np.ndarray
     relative_residual: np.ndarray
     iterations: np.ndarray
-    step: np.ndarray
     integration_steps: np.ndarray
-    index: np.ndarray
+    step: np.ndarray
+    multipliers: np.ndarray
+    state0: np.ndarray
     output_dofs: list[int]
     phase_dof: int
     events: list[ResponseEvent]
@@ -219,11 +227,6 @@ class Response:
         self.__dict__.update(state)
 
     @property
-    def frequency_hz(self) -> np.ndarray:
-        """``frequency / 2π``."""
-        return self.frequency / (2 * np.pi)
-
-    @property
     def folds(self) -> list[ResponseEvent]:
         """The events of kind ``"fold"``."""
         return [e for e in self.events if e.kind == "fold"]
@@ -258,28 +261,8 @@ class Response:
         return Motion(t, z[:, :dofs], z[:, dofs:])
 
     def to_pandas(self) -> "pandas.DataFrame":
-        """One row per point, the columns of ``<name>.csv``: ``frequency_rad_s``,
-        ``frequency_hz``, ``force_amplitude``, ``peak_x<d>`` per output dof,
-        ``harmonic_amplitude``, ``phase_lag``, ``stable``, ``max_floquet_modulus``,
-        ``relative_residual``, ``iterations``."""
-        import pandas
-
-        columns: dict[str, Any] = {
-            "frequency_rad_s": self.frequency,
-            "frequency_hz": self.frequency_hz,
-            "force_amplitude": self.force_amplitude,
-        }
-        for k, d in enumerate(self.output_dofs):
-            columns[f"peak_x{d}"] = self.peaks[:, k]
-        columns.update(
-            harmonic_amplitude=self.harmonic_amplitude,
-            phase_lag=self.phase_lag,
-            stable=self.stable,
-            max_floquet_modulus=self.max_floquet_modulus,
-            relative_residual=self.relative_residual,
-            iterations=self.iterations,
-        )
-        return pandas.DataFrame(columns)
+        """One row per point, with the columns of ``<name>.csv``."""
+        return _csv_frame(self, _RESPONSE_COLUMNS)
 
     def plot(self, ax: "matplotlib.axes.Axes | None" = None, dof: int | None = None, **kwargs: Any) -> "matplotlib.axes.Axes":
         """The peak of output dof ``dof`` (default: the first) against the frequency (or the
@@ -289,10 +272,16 @@ class Response:
         return _plot([self], ax, dof, **kwargs)
 
 
+Response.__doc__ = (Response.__doc__ or "") + "\n    Point columns (array, unit: meaning):\n\n" + _columns_doc(
+    _RESPONSE_COLUMNS
+)
+
+
 class Responses(list):
     """The curves of several force levels (``amplitudes=[...]``), in the order given: a list
     of :class:`Response`, with :meth:`plot` (every level on one axes) and :meth:`to_pandas`
-    (the rows of every level, which ``force_amplitude`` tells apart)."""
+    (the rows of every level, which ``curve`` tells apart: ``<name>.csv`` of a job's
+    ``[[response]]`` with these ``amplitudes``)."""
 
     def plot(self, ax: "matplotlib.axes.Axes | None" = None, dof: int | None = None, **kwargs: Any) -> "matplotlib.axes.Axes":
         """Every level's curve as :meth:`Response.plot` draws one, labelled by its force
@@ -393,6 +382,7 @@ def _curve(
     sweep: tuple[str, float, float, float],
     output_dofs: Sequence[int] | None,
     settings: dict[str, Any],
+    curve: int,
     progress: bool | None,
     callback: Callable[[int, float, float, bool], Any] | None,
     raise_on_failure: bool,
@@ -421,6 +411,7 @@ def _curve(
             sweep,
             dofs,
             settings,
+            curve,
             observe if (update is not None or callback is not None) else None,
         )
     except BaseException as error:
@@ -513,9 +504,9 @@ def frequency_response(
     if "amplitude" in force.to_dict():
         unit = Force(**{**force.to_dict(), "amplitude": 1.0})
     done: list[Response] = []
-    for a in levels:
+    for k, a in enumerate(levels):
         curve = _curve(
-            model, unit, ("frequency", start, end, a), output_dofs, settings,
+            model, unit, ("frequency", start, end, a), output_dofs, settings, k,
             progress, callback, raise_on_failure, done,
         )
         curve.force = Force(**{**force.to_dict(), "amplitude": a}) if "amplitude" in force.to_dict() else force
@@ -547,7 +538,7 @@ def force_response(
     top = _checks.real("amplitude_max", amplitude_max)
     unit = Force(**{**force.to_dict(), "amplitude": 1.0}) if "amplitude" in force.to_dict() else force
     curve = _curve(
-        model, unit, ("amplitude", force.amplitude, top, omega), output_dofs, settings,
+        model, unit, ("amplitude", force.amplitude, top, omega), output_dofs, settings, 0,
         progress, callback, raise_on_failure, [],
     )
     curve.force = force
