@@ -184,7 +184,11 @@ fn execute(cli: Cli) -> Result<()> {
             out,
             threads,
             quiet,
-        } => run::run_job(&job, &out, threads, quiet),
+        } => {
+            // The forced responses' progress asks the switch (`say!`); branches carry it.
+            progress::set_quiet(quiet);
+            run::run_job(&job, &out, threads, quiet)
+        }
         Command::Study {
             job,
             out,

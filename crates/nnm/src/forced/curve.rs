@@ -315,6 +315,7 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
     let (mut points, mut events) = (Vec::new(), Vec::new());
     let (start, end) = sweep.range();
     let width = end - start;
+    let mut landing_iterations = 0;
     let stop = loop {
         let item = match continuation.next() {
             Some(Ok(item)) => item,
@@ -323,6 +324,29 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
             }
             Some(Err(e)) => break ResponseStop::Failed(e.to_string()),
             None => break ResponseStop::Failed("the continuation ended".into()),
+        };
+        let parameter = |point: &ResponsePoint| match sweep {
+            Sweep::Frequency { .. } => point.frequency,
+            Sweep::Amplitude { .. } => point.force_amplitude,
+        };
+        // A point past the end of the sweep is moved onto it before anyone sees it.
+        let item = match item {
+            Item::Point(mut point) => {
+                if let Some(previous) = points.last()
+                    && parameter(&point) > end
+                {
+                    land_on_end(
+                        continuation.problem_mut(),
+                        previous,
+                        &mut point,
+                        end,
+                        settings,
+                        &mut landing_iterations,
+                    );
+                }
+                Item::Point(point)
+            }
+            event => event,
         };
         let flow = observer(&item);
         let point = match item {
@@ -335,10 +359,7 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
             }
             Item::Point(point) => point,
         };
-        let p = match sweep {
-            Sweep::Frequency { .. } => point.frequency,
-            Sweep::Amplitude { .. } => point.force_amplitude,
-        };
+        let p = parameter(&point);
         let tangent = *point.tangent.last().expect("a tangent");
         let z0 = point.z0.clone();
         points.push(point);
@@ -362,16 +383,8 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         }
     };
     let mut continuation_stats = continuation.stats();
+    continuation_stats.newton_iterations += landing_iterations;
     drop(continuation);
-    if stop == ResponseStop::End {
-        land_on_end(
-            &mut problem,
-            &mut points,
-            end,
-            settings,
-            &mut continuation_stats,
-        );
-    }
     Ok(ResponseCurve {
         points,
         events,
@@ -384,18 +397,18 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
     })
 }
 
-/// Replaces a last point past the end of the sweep by the point at the end itself: corrected
-/// at the fixed parameter from the chord between the last two points (the cap on the last
-/// step lands near the end, the corrector's move along the curve's curvature leaves it a
-/// little past).
+/// Replaces a point past the end of the sweep by the point at the end itself: corrected at
+/// the fixed parameter from the chord between it and the point before (the cap on the last
+/// step lands near the end; the corrector's move along the curve's curvature leaves it a
+/// little past). Left as it is if the correction fails.
 fn land_on_end<S: MechanicalSystem + ?Sized>(
     problem: &mut ForcedShooting<'_, '_, S>,
-    points: &mut [ResponsePoint],
+    before: &ResponsePoint,
+    last: &mut ResponsePoint,
     end: f64,
     settings: &ResponseSettings,
-    stats: &mut crate::continuation::ContinuationStats,
+    iterations: &mut usize,
 ) {
-    let [.., before, last] = points else { return };
     let m = last.unknowns.len();
     let target = end / problem.scales().parameter;
     let (a, b) = (before.unknowns[m - 1], last.unknowns[m - 1]);
@@ -419,7 +432,7 @@ fn land_on_end<S: MechanicalSystem + ?Sized>(
         &guess,
         settings.continuation.tolerance,
         settings.continuation.max_iterations,
-        &mut stats.newton_iterations,
+        iterations,
     ) else {
         return;
     };
