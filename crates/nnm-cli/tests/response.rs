@@ -66,11 +66,15 @@ fn forced_duffing_folds_where_harmonic_balance_puts_them() {
         .iter()
         .position(|p| p.0 > upper - 1e-3)
         .expect("the curve reaches the upper fold");
+    // Where it turns back up in Ω: the lower fold, between two points.
     let bottom = top
-        + points[top..]
-            .iter()
-            .position(|p| p.0 < lower + 1e-3)
-            .expect("and comes back to the lower one");
+        + (0..points.len() - top)
+            .min_by(|&a, &b| points[top + a].0.total_cmp(&points[top + b].0))
+            .expect("points after the upper fold");
+    assert!(
+        points[bottom].0 < lower + 1e-2,
+        "the curve comes back to the lower fold: {points:?}"
+    );
     let middle: Vec<&(f64, bool)> = points[top..bottom]
         .iter()
         .filter(|p| p.0 < upper - 1e-2 && p.0 > lower + 1e-2)
