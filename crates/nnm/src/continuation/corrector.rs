@@ -38,6 +38,11 @@ pub enum CorrectorError<E: std::error::Error> {
 /// Newton from `start` on `F(u) = 0`, `direction · (u - anchor) = 0`, until the problem's
 /// relative residual is below `tolerance`; at most `max_iterations` iterations, and it gives
 /// up early when the residual grows a thousandfold. `newton_iterations` counts the solves.
+///
+/// A problem may linearise some iterates by a chord (a neighbour's Jacobian,
+/// [`Linearization::is_exact`] false): those solves are cheap, and they are not counted as
+/// iterations — neither against `max_iterations` (their own allowance is as many again) nor in
+/// [`Corrected::iterations`], which the step control reads as the work a point took.
 pub fn correct<P: ContinuationProblem>(
     problem: &mut P,
     start: &[f64],
@@ -49,7 +54,8 @@ pub fn correct<P: ContinuationProblem>(
 ) -> Result<Corrected<P::Evaluation>, CorrectorError<P::Error>> {
     let mut u = start.to_vec();
     let mut first_residual = None;
-    for iteration in 0..=max_iterations {
+    let (mut exact, mut chords) = (0usize, 0usize);
+    loop {
         let evaluation = problem.evaluate(&u).map_err(CorrectorError::Problem)?;
         let residual = evaluation.relative_residual();
         if !residual.is_finite() {
@@ -59,15 +65,25 @@ pub fn correct<P: ContinuationProblem>(
             return Ok(Corrected {
                 u,
                 evaluation,
-                iterations: iteration,
+                iterations: exact,
             });
         }
         let first = *first_residual.get_or_insert(residual);
-        if iteration == max_iterations || residual > 1e3 * first.max(tolerance) {
+        let spent = if evaluation.is_exact() {
+            exact >= max_iterations
+        } else {
+            chords >= max_iterations
+        };
+        if spent || residual > 1e3 * first.max(tolerance) {
             return Err(CorrectorError::NoConvergence {
                 residual,
-                iterations: iteration,
+                iterations: exact + chords,
             });
+        }
+        if evaluation.is_exact() {
+            exact += 1;
+        } else {
+            chords += 1;
         }
         let rhs: Vec<f64> = evaluation.residual().iter().map(|r| -r).collect();
         let offset: f64 = direction
@@ -81,5 +97,4 @@ pub fn correct<P: ContinuationProblem>(
         }
         *newton_iterations += 1;
     }
-    unreachable!("the loop returns at max_iterations")
 }

@@ -31,6 +31,14 @@ pub trait Linearization {
     fn relative_residual(&self) -> f64;
     /// Least-squares solution `x` of `J x = rhs`, `borderᵀ x = border_rhs`.
     fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64>;
+    /// Whether the linearisation is the Jacobian at `u` itself (default), or a chord — a
+    /// neighbour's Jacobian with `u`'s residual, cheap to make, converging linearly. The
+    /// corrector does not count chord solves as iterations ([`corrector::correct`]); a
+    /// problem must return an exact linearisation where the residual meets the tolerance
+    /// (the converged point's tangent reads it).
+    fn is_exact(&self) -> bool {
+        true
+    }
 }
 
 /// A problem continued in `u ∈ ℝ^{N+1}`.

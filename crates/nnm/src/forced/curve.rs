@@ -300,6 +300,7 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         output_dofs.clone(),
         phase_dof,
         settings.samples.max(8),
+        settings.continuation.tolerance,
     );
     let z0 = linear.response(drive.frequency, drive.amplitude);
     problem

@@ -161,9 +161,11 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<ForcedShooting<'_, '_, S>> for 
         let fold = previous.tangent[last].signum() != next.tangent[last].signum();
         if fold {
             // Near the fold the parameter is `p_f + ½κ(s − s_f)²` and the tangent's component
-            // `κ(s − s_f)`: a component of `0.1√tolerance` leaves `p` off by
-            // `0.005·tolerance/κ` (scaled units, κ of order one on a resolved curve).
-            let accuracy = 0.1 * self.tolerance.sqrt();
+            // `κ(s − s_f)`: a component of `1e-3√tolerance` leaves the point `1e-3√tol/κ`
+            // along the curve from the fold — the peak there off by as much, relative, as its
+            // slope — and `p` off by `5e-7·tolerance/κ` (scaled units, κ of order one on a
+            // resolved curve).
+            let accuracy = 1e-3 * self.tolerance.sqrt();
             if let Some(point) = self.locate(segment, |p| p.tangent[last], accuracy) {
                 let critical_multiplier =
                     critical(&point, ResponseEventKind::Fold).map_or((1.0, 0.0), |c| c.1);

@@ -2,6 +2,12 @@
 //! over the fixed forcing period, continued in `p` = the frequency `Ω` or the force amplitude
 //! `a` (docs/method.md eqs. (99)–(101)).
 //!
+//! The corrector iterates by chords (eq. (99a)): an iterate's residual comes from the motion
+//! alone and is linearised by the last exact Jacobian (a converged neighbour's, one step
+//! back), and only an iterate whose residual is below the tolerance — or whose chord step
+//! did not cut it fourfold — integrates the sensitivities. A point then costs about one integration
+//! with `2n + 2` directions instead of one per Newton iteration.
+//!
 //! The unknowns are scaled so that a whole curve spans a few units: displacements by the
 //! largest linear response over the sweep, velocities by that times the sweep's frequency,
 //! and the parameter by the sweep's width. The arclength steps are then absolute (the
@@ -73,8 +79,10 @@ pub struct ForcedEvaluation {
     pub relative_residual: f64,
     /// `∂(D H)/∂u` and the offset rows, `(2n + r) × (2n + 1)`.
     pub jacobian: Mat<f64>,
-    /// The monodromy `Φ = ∂z(2π)/∂z0`, unscaled.
+    /// The monodromy `Φ = ∂z(2π)/∂z0`, unscaled (empty on a chord evaluation).
     pub monodromy: Mat<f64>,
+    /// Whether `jacobian` is the Jacobian at `z0` (else a chord: the last exact one).
+    pub exact: bool,
     /// Integration steps of the period.
     pub steps: usize,
 }
@@ -86,6 +94,10 @@ impl Linearization for ForcedEvaluation {
 
     fn relative_residual(&self) -> f64 {
         self.relative_residual
+    }
+
+    fn is_exact(&self) -> bool {
+        self.exact
     }
 
     /// The bordered system `[J; bᵀ]` in least squares by QR (square without rigid-body
@@ -202,13 +214,22 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     rigid_pins: Vec<(Vec<f64>, f64)>,
     /// Multipliers at +1 that the rigid-body modes bring (one or two a mode).
     neutral_multipliers: usize,
+    /// The continuation's tolerance: below it, an evaluation is made exact.
+    tolerance: f64,
+    /// The last exact Jacobian, the chord of the corrector iterations (eq. (99a)).
+    chord: Option<Mat<f64>>,
+    /// The last iterate's relative residual (`None` before the first): a chord step that
+    /// does not cut it fourfold gets an exact evaluation.
+    chord_residual: Option<f64>,
     /// Work counters so far.
     pub stats: ForcedStats,
 }
 
 impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     /// The problem of `sweep` integrated by `integrator`; points record the peaks of
-    /// `output_dofs` and the first harmonic of `phase_dof`, from `samples` samples a period.
+    /// `output_dofs` and the first harmonic of `phase_dof`, from `samples` samples a period;
+    /// `tolerance` is the continuation's (below it an evaluation is made exact).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         system: &'s ForcedSystem<'a, S>,
         integrator: Box<dyn ForcedIntegrator + 's>,
@@ -217,6 +238,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
         output_dofs: Vec<usize>,
         phase_dof: usize,
         samples: usize,
+        tolerance: f64,
     ) -> Self {
         Self {
             system,
@@ -228,6 +250,9 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             samples,
             rigid_pins: Vec::new(),
             neutral_multipliers: 0,
+            tolerance,
+            chord: None,
+            chord_residual: None,
             stats: ForcedStats::default(),
         }
     }
@@ -364,39 +389,39 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     }
 }
 
-impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_, S> {
-    type Evaluation = ForcedEvaluation;
-    type Point = ResponsePoint;
-    type Error = ForcedError;
-
-    fn dimension(&self) -> usize {
-        2 * self.system.dofs() + 1
-    }
-
-    // Negated comparison deliberate: a NaN frequency must fail.
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    fn evaluate(&mut self, u: &[f64]) -> Result<ForcedEvaluation, ForcedError> {
-        let n2 = 2 * self.system.dofs();
-        let (z0, p) = self.state(u);
-        let drive = self.sweep.drive(p);
-        if !(drive.frequency > 0.0) {
-            return Err(ForcedError::NonPositiveFrequency(drive.frequency));
-        }
-        let flow = self.integrator.flow(&z0, drive, true)?;
-        self.stats.evaluations += 1;
-        self.stats.integrations += 1;
-        self.stats.integration += flow.stats;
-        let n = n2 / 2;
-        let rows: Vec<f64> = (0..n2)
-            .map(|i| (flow.z[i] - z0[i]) / self.scale_of(i))
+impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
+    /// `D (z(2π) − z0)` and the rigid-body offset rows.
+    fn residual_rows(&self, u: &[f64], z0: &[f64], end: &[f64]) -> Vec<f64> {
+        let n = self.system.dofs();
+        (0..2 * n)
+            .map(|i| (end[i] - z0[i]) / self.scale_of(i))
             .chain(
                 self.rigid_pins
                     .iter()
                     .map(|(w, value)| linalg::dot(w, &u[..n]) - value),
             )
-            .collect();
-        let size = linalg::norm(&u[..n2]).max(f64::MIN_POSITIVE);
-        let relative_residual = linalg::norm(&rows) / size;
+            .collect()
+    }
+
+    /// `‖rows‖ / ‖D z0‖` (eq. (19)).
+    fn relative(&self, u: &[f64], rows: &[f64]) -> f64 {
+        let n2 = 2 * self.system.dofs();
+        linalg::norm(rows) / linalg::norm(&u[..n2]).max(f64::MIN_POSITIVE)
+    }
+
+    /// The evaluation with the sensitivities: the exact Jacobian and the monodromy, kept as
+    /// the chord of the next corrector iterations.
+    fn exact_evaluation(&mut self, u: &[f64]) -> Result<ForcedEvaluation, ForcedError> {
+        let n2 = 2 * self.system.dofs();
+        let n = n2 / 2;
+        let (z0, p) = self.state(u);
+        let drive = self.sweep.drive(p);
+        let flow = self.integrator.flow(&z0, drive, true)?;
+        self.stats.evaluations += 1;
+        self.stats.integrations += 1;
+        self.stats.integration += flow.stats;
+        let rows = self.residual_rows(u, &z0, &flow.z);
+        let relative_residual = self.relative(u, &rows);
         let phi = |i: usize, j: usize| flow.sensitivity[j * n2 + i];
         let parameter_column = match self.sweep {
             Sweep::Frequency { .. } => n2,
@@ -413,6 +438,8 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
                 (phi(i, j) - identity) * self.scale_of(j) / self.scale_of(i)
             }
         });
+        self.chord = Some(jacobian.clone());
+        self.chord_residual = Some(relative_residual);
         Ok(ForcedEvaluation {
             z0,
             drive,
@@ -420,6 +447,58 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
             relative_residual,
             jacobian,
             monodromy: Mat::from_fn(n2, n2, phi),
+            exact: true,
+            steps: flow.steps.len(),
+        })
+    }
+}
+
+impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_, S> {
+    type Evaluation = ForcedEvaluation;
+    type Point = ResponsePoint;
+    type Error = ForcedError;
+
+    fn dimension(&self) -> usize {
+        2 * self.system.dofs() + 1
+    }
+
+    /// A chord step where it can (module notes, eq. (99a)): the residual from the motion
+    /// alone, linearised by the last exact Jacobian, until the residual is below the
+    /// tolerance or a chord step fails to halve it; there the evaluation is made exact — the
+    /// converged point's tangent, multipliers and events read it.
+    // Negated comparison deliberate: a NaN frequency must fail.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn evaluate(&mut self, u: &[f64]) -> Result<ForcedEvaluation, ForcedError> {
+        let (z0, p) = self.state(u);
+        let drive = self.sweep.drive(p);
+        if !(drive.frequency > 0.0) {
+            return Err(ForcedError::NonPositiveFrequency(drive.frequency));
+        }
+        let Some(chord) = self.chord.clone() else {
+            return self.exact_evaluation(u);
+        };
+        let flow = self.integrator.flow(&z0, drive, false)?;
+        self.stats.integrations += 1;
+        self.stats.integration += flow.stats;
+        let rows = self.residual_rows(u, &z0, &flow.z);
+        let relative_residual = self.relative(u, &rows);
+        // A chord step must cut the residual fourfold, or the iterate gets the exact
+        // Jacobian; the first iterate of a new solve (after a converged point) always chords.
+        let stalled = self.chord_residual.is_some_and(|previous| {
+            previous >= self.tolerance && relative_residual > 0.25 * previous
+        });
+        if relative_residual < self.tolerance || stalled {
+            return self.exact_evaluation(u);
+        }
+        self.chord_residual = Some(relative_residual);
+        Ok(ForcedEvaluation {
+            z0,
+            drive,
+            rows,
+            relative_residual,
+            jacobian: chord,
+            monodromy: Mat::zeros(0, 0),
+            exact: false,
             steps: flow.steps.len(),
         })
     }
