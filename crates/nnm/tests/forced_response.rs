@@ -338,3 +338,56 @@ fn engine_order_response_is_a_travelling_wave() {
         }
     }
 }
+
+/// Shooting over half the forcing period (`−z(π) = z0`, an odd system) against the whole
+/// period, on the damped Duffing curve: the same folds and, point for point at equal
+/// frequencies, the same multipliers (the half map's squared).
+#[test]
+fn half_period_shooting_equals_whole_period_shooting() {
+    let duffing = nnm::model::duffing(1.0, 1.0).unwrap();
+    let damping = Matrix::from_rows(&[vec![0.02]]).unwrap();
+    let system = ForcedSystem::new(&duffing, &damping, HarmonicForce::cosine(vec![1.0])).unwrap();
+    let sweep = Sweep::Frequency {
+        from: 0.5,
+        to: 3.5,
+        amplitude: 0.1,
+    };
+    let mut whole = ResponseSettings::default();
+    whole.half_period = false;
+    let (half, whole) = (
+        curve(&system, sweep, &ResponseSettings::default()),
+        curve(&system, sweep, &whole),
+    );
+    assert!(half.half_period && !whole.half_period);
+    let folds = |c: &ResponseCurve| -> Vec<f64> {
+        c.events
+            .iter()
+            .filter(|e| e.kind == ResponseEventKind::Fold)
+            .map(|e| e.point.frequency)
+            .collect()
+    };
+    let (a, b) = (folds(&half), folds(&whole));
+    assert_eq!(a.len(), 2);
+    assert_eq!(b.len(), 2);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-9, "folds {a:?} vs {b:?}");
+    }
+    // The last points, both at the end of the sweep (3.5 rad/s): the same state and
+    // multipliers.
+    let (p, q) = (half.points.last().unwrap(), whole.points.last().unwrap());
+    assert!((p.frequency - q.frequency).abs() < 1e-12);
+    for (x, y) in p.z0.iter().zip(&q.z0) {
+        assert!(
+            (x - y).abs() < 1e-9 * p.peaks[0],
+            "{:?} vs {:?}",
+            p.z0,
+            q.z0
+        );
+    }
+    for (m, n) in p.multipliers.iter().zip(&q.multipliers) {
+        assert!(
+            (m.0 - n.0).hypot(m.1.abs() - n.1.abs()) < 1e-7,
+            "{m:?} vs {n:?}"
+        );
+    }
+}

@@ -38,7 +38,7 @@ pub const RESPONSE_KEYS: [&str; 10] = [
 
 /// The settings a `[[response]]` table takes: the fields of `nnm::forced::ResponseSettings`
 /// as serde reads them, flattened groups included (a test holds the list to the struct).
-pub const RESPONSE_SETTINGS_KEYS: [&str; 12] = [
+pub const RESPONSE_SETTINGS_KEYS: [&str; 13] = [
     "tolerance",
     "initial_step",
     "min_step",
@@ -50,6 +50,7 @@ pub const RESPONSE_SETTINGS_KEYS: [&str; 12] = [
     "integration_factor",
     "events",
     "max_points",
+    "half_period",
     "samples",
 ];
 

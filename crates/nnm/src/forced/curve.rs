@@ -38,6 +38,10 @@ pub struct ResponseSettings {
     pub events: bool,
     /// Largest number of points (default 2000).
     pub max_points: usize,
+    /// Shoot over half the forcing period when the internal force is odd (default true;
+    /// docs/method.md eq. (99b)): halves every integration; the multipliers are the half
+    /// map's squared, the full-period symmetry-breaking ones included.
+    pub half_period: bool,
     /// Samples of a period for the peaks and the first harmonic (default 32: the first
     /// harmonic is exact for motions without harmonics above the 30th, and each peak is
     /// refined between samples, docs/method.md eq. (87)).
@@ -55,6 +59,7 @@ impl Default for ResponseSettings {
             integration: IntegrationSettings::default(),
             events: true,
             max_points: 2000,
+            half_period: true,
             samples: 32,
         }
     }
@@ -94,6 +99,8 @@ pub struct ResponseCurve {
     pub output_dofs: Vec<usize>,
     /// The dof of the first harmonic's amplitude and phase.
     pub phase_dof: usize,
+    /// Whether it was shot over half the forcing period.
+    pub half_period: bool,
     /// Work counters.
     pub stats: ForcedStats,
     /// The continuation's counters.
@@ -292,7 +299,7 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         )
     };
     integrator.set_tolerances(tolerances(relative));
-    let mut problem = ForcedShooting::new(
+    let problem = ForcedShooting::new(
         system,
         integrator,
         sweep,
@@ -302,6 +309,9 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         settings.samples.max(8),
         settings.continuation.tolerance,
     );
+    let half_period =
+        settings.half_period && crate::symmetry::is_odd(system.system(), scales.displacement);
+    let mut problem = problem.with_half_period(half_period);
     let z0 = linear.response(drive.frequency, drive.amplitude);
     problem
         .adapt(&z0, from)
@@ -393,6 +403,7 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         integrator: method.name(),
         output_dofs,
         phase_dof,
+        half_period,
         stats: problem.stats,
         continuation: continuation_stats,
     })

@@ -79,7 +79,9 @@ pub struct ForcedEvaluation {
     pub relative_residual: f64,
     /// `∂(D H)/∂u` and the offset rows, `(2n + r) × (2n + 1)`.
     pub jacobian: Mat<f64>,
-    /// The monodromy `Φ = ∂z(2π)/∂z0`, unscaled (empty on a chord evaluation).
+    /// The derivative `P Φ(span)` of the shot map (the monodromy `Φ(2π)` over a whole
+    /// period; over half of one, its square root `−Φ(π)`), unscaled (empty on a chord
+    /// evaluation).
     pub monodromy: Mat<f64>,
     /// Whether `jacobian` is the Jacobian at `z0` (else a chord: the last exact one).
     pub exact: bool,
@@ -214,6 +216,8 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     rigid_pins: Vec<(Vec<f64>, f64)>,
     /// Multipliers at +1 that the rigid-body modes bring (one or two a mode).
     neutral_multipliers: usize,
+    /// Shoot over half the period, `−z(π) = z0` (an odd system: eq. (99b)).
+    half_period: bool,
     /// The continuation's tolerance: below it, an evaluation is made exact.
     tolerance: f64,
     /// The last exact Jacobian, the chord of the corrector iterations (eq. (99a)).
@@ -250,6 +254,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             samples,
             rigid_pins: Vec::new(),
             neutral_multipliers: 0,
+            half_period: false,
             tolerance,
             chord: None,
             chord_residual: None,
@@ -288,6 +293,19 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
                 (w, value)
             })
             .collect();
+    }
+
+    /// Shoots over half the forcing period, `−z(π; z0) = z0` (eq. (99b)): valid when the
+    /// internal force is odd, as the harmonic force is (`F(τ + π) = −F(τ)`), and the
+    /// response is half-wave symmetric; halves every integration.
+    pub fn with_half_period(mut self, half_period: bool) -> Self {
+        self.half_period = half_period;
+        self
+    }
+
+    /// Whether it shoots over half the period.
+    pub fn half_period(&self) -> bool {
+        self.half_period
     }
 
     /// The sweep.
@@ -390,11 +408,26 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
 }
 
 impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
-    /// `D (z(2π) − z0)` and the rigid-body offset rows.
+    /// The horizon shot: the forcing period, or half of it (eq. (99b)).
+    fn span(&self) -> f64 {
+        if self.half_period {
+            std::f64::consts::PI
+        } else {
+            2.0 * std::f64::consts::PI
+        }
+    }
+
+    /// `P`: the state map after the horizon, `−1` over half a period, `+1` over a whole one.
+    fn flip(&self) -> f64 {
+        if self.half_period { -1.0 } else { 1.0 }
+    }
+
+    /// `D (P z(span) − z0)` and the rigid-body offset rows.
     fn residual_rows(&self, u: &[f64], z0: &[f64], end: &[f64]) -> Vec<f64> {
         let n = self.system.dofs();
+        let flip = self.flip();
         (0..2 * n)
-            .map(|i| (end[i] - z0[i]) / self.scale_of(i))
+            .map(|i| (flip * end[i] - z0[i]) / self.scale_of(i))
             .chain(
                 self.rigid_pins
                     .iter()
@@ -416,13 +449,14 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         let n = n2 / 2;
         let (z0, p) = self.state(u);
         let drive = self.sweep.drive(p);
-        let flow = self.integrator.flow(&z0, drive, true)?;
+        let flow = self.integrator.flow(&z0, drive, self.span(), true)?;
         self.stats.evaluations += 1;
         self.stats.integrations += 1;
         self.stats.integration += flow.stats;
         let rows = self.residual_rows(u, &z0, &flow.z);
         let relative_residual = self.relative(u, &rows);
-        let phi = |i: usize, j: usize| flow.sensitivity[j * n2 + i];
+        let flip = self.flip();
+        let phi = |i: usize, j: usize| flip * flow.sensitivity[j * n2 + i];
         let parameter_column = match self.sweep {
             Sweep::Frequency { .. } => n2,
             Sweep::Amplitude { .. } => n2 + 1,
@@ -477,7 +511,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
         let Some(chord) = self.chord.clone() else {
             return self.exact_evaluation(u);
         };
-        let flow = self.integrator.flow(&z0, drive, false)?;
+        let flow = self.integrator.flow(&z0, drive, self.span(), false)?;
         self.stats.integrations += 1;
         self.stats.integration += flow.stats;
         let rows = self.residual_rows(u, &z0, &flow.z);
@@ -512,6 +546,13 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
         detail: Detail,
     ) -> Result<ResponsePoint, ForcedError> {
         let mut multipliers = linalg::eigenvalues(evaluation.monodromy.as_ref())?;
+        if self.half_period {
+            // The monodromy is the half map's derivative squared (eq. (101a)).
+            multipliers = multipliers
+                .iter()
+                .map(|&(re, im)| (re * re - im * im, 2.0 * re * im))
+                .collect();
+        }
         // The rigid-body modes' multipliers sit at +1 (an offset, and a momentum when the
         // damping leaves the mode free): neutral directions the offset rows hold, not a
         // stability property. Left out, as the trivial pair of a free motion is.

@@ -449,9 +449,10 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedRungeKutta<'_, '_,
         &mut self,
         z0: &[f64],
         drive: Drive,
+        span: f64,
         sensitivities: bool,
     ) -> Result<ForcedFlow, IntegrationError> {
-        self.integrate(z0, 0.0, 2.0 * std::f64::consts::PI, drive, sensitivities)
+        self.integrate(z0, 0.0, span, drive, sensitivities)
     }
 
     fn advance(

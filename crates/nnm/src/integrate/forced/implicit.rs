@@ -536,10 +536,12 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
         &mut self,
         z0: &[f64],
         drive: Drive,
+        span: f64,
         sensitivities: bool,
     ) -> Result<ForcedFlow, IntegrationError> {
         let period = 2.0 * std::f64::consts::PI;
-        self.integrate(z0, 0.0, period, self.steps, drive, sensitivities)
+        let steps = ((span / period * self.steps as f64).round() as usize).max(1);
+        self.integrate(z0, 0.0, span, steps, drive, sensitivities)
     }
 
     /// On steps no longer than the period's equal steps.

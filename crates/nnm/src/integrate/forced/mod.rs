@@ -37,7 +37,8 @@ pub struct Drive {
     pub amplitude: f64,
 }
 
-/// One forcing period's flow: `z(2π)` and, when asked, `∂z(2π)/∂(z0, Ω, a)`.
+/// The flow over one forcing period (or half of it): `z(span)` and, when asked,
+/// `∂z(span)/∂(z0, Ω, a)`.
 #[derive(Debug, Clone)]
 pub struct ForcedFlow {
     /// `z(2π)`, the state after one forcing period.
@@ -53,12 +54,14 @@ pub struct ForcedFlow {
 
 /// Integrates a forced system over its forcing period, with sensitivities on request.
 pub trait ForcedIntegrator {
-    /// `z(2π)` from `z(0) = z0` at `drive`; with `sensitivities`, also
-    /// [`ForcedFlow::sensitivity`].
+    /// `z(span)` from `z(0) = z0` at `drive` — `span` the forcing period `2π`, or half of it
+    /// for a half-wave symmetric response; with `sensitivities`, also
+    /// [`ForcedFlow::sensitivity`] at `span`.
     fn flow(
         &mut self,
         z0: &[f64],
         drive: Drive,
+        span: f64,
         sensitivities: bool,
     ) -> Result<ForcedFlow, IntegrationError>;
 
