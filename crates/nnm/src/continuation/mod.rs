@@ -41,6 +41,28 @@ pub trait Linearization {
     }
 }
 
+/// The bordered system `[J; bᵀ] x = [r; c]` by dense Householder QR in least squares (the
+/// Moore–Penrose solution of a consistent overdetermined system, eqs. (20)–(23)): what a
+/// problem with a dense Jacobian answers [`Linearization::solve_bordered`] with.
+pub fn solve_bordered_dense(
+    jacobian: &crate::Mat<f64>,
+    border: &[f64],
+    rhs: &[f64],
+    border_rhs: f64,
+) -> Vec<f64> {
+    let (rows, m) = (jacobian.nrows(), jacobian.ncols());
+    let a = crate::Mat::from_fn(rows + 1, m, |i, j| {
+        if i < rows {
+            jacobian[(i, j)]
+        } else {
+            border[j]
+        }
+    });
+    let mut b = rhs.to_vec();
+    b.push(border_rhs);
+    crate::linalg::least_squares(a.as_ref(), &b)
+}
+
 /// A problem continued in `u ∈ ℝ^{N+1}`.
 pub trait ContinuationProblem {
     /// One evaluation at `u`: residual, convergence measure and bordered solves.

@@ -105,17 +105,7 @@ impl Linearization for ForcedEvaluation {
     /// The bordered system `[J; bᵀ]` in least squares by QR (square without rigid-body
     /// modes; with them, consistent and overdetermined by one row a mode).
     fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
-        let (rows, m) = (self.jacobian.nrows(), self.jacobian.ncols());
-        let a = Mat::from_fn(rows + 1, m, |i, j| {
-            if i < rows {
-                self.jacobian[(i, j)]
-            } else {
-                border[j]
-            }
-        });
-        let mut b = rhs.to_vec();
-        b.push(border_rhs);
-        linalg::least_squares(a.as_ref(), &b)
+        crate::continuation::solve_bordered_dense(&self.jacobian, border, rhs, border_rhs)
     }
 }
 

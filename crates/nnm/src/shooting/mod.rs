@@ -125,17 +125,7 @@ impl Linearization for Evaluation {
         if let Some(operator) = &self.operator {
             return operator.solve(border, rhs, border_rhs);
         }
-        let (rows, m) = (self.jacobian.nrows(), self.jacobian.ncols());
-        let a = Mat::from_fn(rows + 1, m, |i, j| {
-            if i < rows {
-                self.jacobian[(i, j)]
-            } else {
-                border[j]
-            }
-        });
-        let mut b = rhs.to_vec();
-        b.push(border_rhs);
-        linalg::least_squares(a.as_ref(), &b)
+        crate::continuation::solve_bordered_dense(&self.jacobian, border, rhs, border_rhs)
     }
 }
 
