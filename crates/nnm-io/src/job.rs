@@ -61,8 +61,9 @@ pub use families::{Family, family_defaults, family_names, family_parameter_names
 pub use load::{MAX_BRANCH_NAME, load_job, load_job_with, parse_job};
 pub use model::{general_model, model_from_table};
 pub use response::{
-    AMPLITUDE_START_RATIO, RESPONSE_KEYS, RESPONSE_SETTINGS_KEYS, ResponseBody, ResponseJob,
-    damping_matrix, given_damping_matrix, response_body, response_settings,
+    AMPLITUDE_START_RATIO, ForceForm, RESPONSE_KEYS, RESPONSE_SETTINGS_KEYS, ResponseBody,
+    ResponseJob, damping_matrix, force_shape, given_damping_matrix, response_body,
+    response_settings,
 };
 pub use schema::{DampingSpec, EventStart};
 

@@ -1,9 +1,11 @@
 //! Forced, damped responses from Python (`nnm.frequency_response`, `nnm.force_response`):
 //! the damping built and the settings read by the job file's own functions
-//! (`nnm_io::job::damping_matrix`, `response_settings`) and the force through the core's serde
-//! form (`nnm::forced::Force`), so that a script and a job file accept the same forms with the
-//! same messages; the curve computed by `nnm::forced::forced_response` without the
-//! GIL, Ctrl-C checked between points; the points handed back as numpy columns.
+//! (`nnm_io::job::damping_matrix`, `response_settings`) and the force shaped by the job
+//! file's own function too (`nnm_io::job::force_shape`: forced dofs and vectors in the
+//! model's full numbering, before `fixed_dofs`, as springs' dofs are), so that a script and a
+//! job file accept the same forms, number them alike and refuse them with the same messages;
+//! the curve computed by `nnm::forced::forced_response` without the GIL, Ctrl-C checked
+//! between points; the points handed back as numpy columns.
 
 use std::ops::ControlFlow;
 use std::path::Path;
@@ -13,9 +15,11 @@ use nnm::forced::{
 };
 use nnm::integrate::forced::{Drive, ForcedIntegrator, ForcedRungeKutta};
 use nnm::integrate::{DOP853, Tolerances};
-use nnm::model::{ForcedSystem, Matrix, SparseMatrix};
+use nnm::model::{ForcedSystem, HarmonicForce, Matrix, SparseMatrix};
 use nnm::{Item, MechanicalSystem, Structure};
-use nnm_io::job::{DampingSpec, damping_matrix, given_damping_matrix, response_settings};
+use nnm_io::job::{
+    DampingSpec, damping_matrix, force_shape, given_damping_matrix, response_settings,
+};
 use nnm_io::output::ResponseContext;
 use numpy::ndarray::Array2;
 use numpy::{Complex64, IntoPyArray, PyReadonlyArray1};
@@ -61,18 +65,35 @@ pub fn damping(
     Ok(NativeDamping { matrix })
 }
 
-/// The force of a Python dict (the job file's `force = { ... }` keys).
+/// The force of a Python dict (the job file's `force = { ... }` keys) as the core reads it,
+/// without a model: for the Python `Force`'s own checks ([`force_amplitude`]).
 fn force_from(dict: &Bound<'_, PyDict>) -> PyResult<Force> {
     toml::Value::Table(table_from_dict(dict)?)
         .try_into::<Force>()
         .map_err(|e| PyValueError::new_err(format!("force: {}", e.message())))
 }
 
-/// `model` with `damping` (none: `C = 0`) driven by `force` at unit amplitude.
+/// The force shape at unit amplitude of a Python dict (the job file's `force = { ... }`
+/// keys) on `model`, by the job file's rule (`nnm_io::job::force_shape`): forced dofs and a
+/// vector in the full numbering (before `fixed_dofs`), the shape in the computed model's; a
+/// forced dof that is fixed refused with the job file's message, as a `ValueError`.
+fn force_of(model: &NativeModel, force: &Bound<'_, PyDict>) -> PyResult<HarmonicForce> {
+    let value = toml::Value::Table(table_from_dict(force)?);
+    force_shape(
+        &value,
+        &model.structure,
+        model.fixed.as_ref(),
+        Path::new(""),
+    )
+    .map(|form| form.shape)
+    .map_err(PyValueError::new_err)
+}
+
+/// `model` with `damping` (none: `C = 0`) driven by `shape` at unit amplitude.
 fn forced_system<'a>(
     structure: &'a Structure,
     damping: Option<&NativeDamping>,
-    force: &Force,
+    shape: HarmonicForce,
 ) -> PyResult<ForcedSystem<'a, Structure>> {
     let n = structure.dofs();
     let zero;
@@ -83,7 +104,6 @@ fn forced_system<'a>(
             &zero
         }
     };
-    let shape = force.shape(structure).map_err(value_error)?;
     ForcedSystem::new(structure, c, shape).map_err(value_error)
 }
 
@@ -153,7 +173,7 @@ pub fn response<'py>(
     curve: usize,
     callback: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let force = force_from(force)?;
+    let shape = force_of(&model, force)?;
     let settings = response_settings(table_from_dict(settings)?).map_err(PyValueError::new_err)?;
     let index = curve;
     let sweep = match sweep.0.as_str() {
@@ -170,7 +190,7 @@ pub fn response<'py>(
         other => return Err(PyValueError::new_err(format!("unknown sweep `{other}`"))),
     };
     let structure = &model.structure;
-    let system = forced_system(structure, damping.as_deref(), &force)?;
+    let system = forced_system(structure, damping.as_deref(), shape)?;
     let output_dofs = output_dofs.unwrap_or_default();
     let threading = py.import("threading")?;
     let main_thread = threading
@@ -233,8 +253,13 @@ pub fn response<'py>(
                 events: Vec::new(),
                 stop: ResponseStop::Failed(e.to_string()),
                 integrator: "",
+                // The forced dofs in the computed model's numbering, as the curve (and a job
+                // file's `output_dofs`) would have them.
                 output_dofs: if output_dofs.is_empty() {
-                    force.default_output_dofs(structure)
+                    let force = system.force();
+                    (0..structure.dofs())
+                        .filter(|&i| force.cosine[i] != 0.0 || force.sine[i] != 0.0)
+                        .collect()
                 } else {
                     output_dofs.clone()
                 },
@@ -339,7 +364,7 @@ pub fn forced_motion<'py>(
     samples: usize,
     tolerance: f64,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let force = force_from(force)?;
+    let shape = force_of(&model, force)?;
     let structure = &model.structure;
     let n = structure.dofs();
     let z0 = state0.as_slice()?.to_vec();
@@ -349,7 +374,7 @@ pub fn forced_motion<'py>(
         )));
     }
     nnm::settings::check_tolerance(tolerance).map_err(|e| PyValueError::new_err(e.0))?;
-    let system = forced_system(structure, damping.as_deref(), &force)?;
+    let system = forced_system(structure, damping.as_deref(), shape)?;
     let size = z0[..n].iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let tolerances = Tolerances {
         relative: tolerance,

@@ -282,12 +282,13 @@ def test_a_job_files_damping_drives_its_response(tmp_path, write_job):
                     'damping = { file = "C.mtx" }\n', **{"C.mtx": market})
     model = nnm.Model.from_job(job)
     assert model.damping == {"file": "C.mtx"} and "damped" in repr(model)
-    r = nnm.frequency_response(model, nnm.Force(dofs=[1], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
+    # Forced dof 2 of the full numbering (before `fixed_dofs`, as the job file's): dof 1 of C3's.
+    r = nnm.frequency_response(model, nnm.Force(dofs=[2], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
     check_linear(r, M3, K3, C3, F3, 1e-9)
     # The same file from Python (a path relative to the working directory, here absolute).
     same = nnm.Model(np.diag([1.0, *np.diag(M3)]), scipy.linalg.block_diag([[5.0]], K3), fixed_dofs=[0],
                      damping={"file": tmp_path / "C.mtx"})
-    r = nnm.frequency_response(same, nnm.Force(dofs=[1], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
+    r = nnm.frequency_response(same, nnm.Force(dofs=[2], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
     check_linear(r, M3, K3, C3, F3, 1e-9)
     # Another damping replaces the job's; none leaves the model undamped.
     assert model.with_damping({"rayleigh": [0.0, 0.1]}).damping == {"rayleigh": [0.0, 0.1]}
@@ -351,10 +352,67 @@ def test_damping_given_twice_or_on_a_family():
     C4 = scipy.linalg.block_diag([[1.0]], C3)
     for given in [{"C": C4}, {"C": sp.csr_array(C4)}, {"damping": {"matrix": C4}}]:
         model = nnm.Model(M4, K4, fixed_dofs=[0], **given)
-        r = nnm.frequency_response(model, nnm.Force(dofs=[1], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
+        r = nnm.frequency_response(model, nnm.Force(dofs=[2], amplitude=1.0), (0.5, 0.7), tolerance=1e-12)
         check_linear(r, M3, K3, C3, F3, 1e-9)
     with pytest.raises(ValueError, match=r"the damping matrix is 3x3, the model has 4 dofs \(before `fixed_dofs`\)"):
         nnm.Model(M4, K4, fixed_dofs=[0], C=C3)
+
+
+def chain_with_a_fixed_dof_inside():
+    """The three-dof chain with a fourth dof inserted at index 1, fixed: coupled to dof 0 in
+    K and C (couplings a support takes), so that only the reduction by `fixed_dofs` leaves
+    M3, K3 and C3. Free dofs 0, 2, 3 of the full numbering are dofs 0, 1, 2 of the model."""
+    free = [0, 2, 3]
+    M, K, C = np.diag([M3[0, 0], 7.0, M3[1, 1], M3[2, 2]]), np.zeros((4, 4)), np.zeros((4, 4))
+    K[np.ix_(free, free)], C[np.ix_(free, free)] = K3, C3
+    K[1, 1], K[0, 1], K[1, 0] = 5.0, -0.5, -0.5
+    C[1, 1], C[0, 1], C[1, 0] = 1.0, -0.1, -0.1
+    return M, K, C
+
+
+def test_forced_dofs_are_in_the_full_numbering_as_springs():
+    """A force on a model with `fixed_dofs` names its dofs (and its vector's entries) in the
+    numbering of M and K, before `fixed_dofs`, as springs and a job file's `force` do: full
+    dof 3 is the model's dof 2 (in the reduced numbering dof 3 does not exist). The response
+    is the complex solve on the reduced matrices with the force there, and the default output
+    dof and the phase dof are the forced dof in the model's numbering, as `output_dofs` are."""
+    M, K, C = chain_with_a_fixed_dof_inside()
+    model = nnm.Model(M, K, C=C, fixed_dofs=[1])
+    assert model.dofs == 3
+    F = np.array([0.0, 0.0, 1.0])
+    r = nnm.frequency_response(model, nnm.Force(dofs=[3], amplitude=0.3), (0.3, 1.8), tolerance=1e-12)
+    assert r.stop_kind == "end" and r.output_dofs == [2] and r.phase_dof == 2
+    check_linear(r, M3, K3, C3, F, 1e-9)
+    # A vector has one entry per dof of M (a zero on the fixed one): full dofs 0 and 2.
+    r = nnm.frequency_response(model, nnm.Force(vector=[0.5, 0.0, -1.0, 0.0]), (0.3, 1.8), tolerance=1e-12)
+    assert r.output_dofs == [0, 1]
+    check_linear(r, M3, K3, C3, np.array([0.5, -1.0, 0.0]), 1e-9)
+    # motion() drives the model with the same force: the harmonic of the complex solve.
+    k = len(r) // 2
+    motion = r.motion(k, samples=40)
+    X = complex_response(M3, K3, C3, r.force_amplitude[k] * np.array([0.5, -1.0, 0.0]), r.frequency[k])
+    expected = (X[None, :] * np.exp(1j * r.frequency[k] * motion.t[:, None])).real
+    np.testing.assert_allclose(motion.x, expected, atol=1e-9 * np.abs(X).max())
+
+
+def test_a_forced_fixed_dof_has_the_job_files_message(cli, write_job):
+    """Forcing a fixed dof, or a vector with a non-zero entry on one, is refused before anything
+    is computed, with the job file's message (one function converts both)."""
+    M, K, C = chain_with_a_fixed_dof_inside()
+    model = nnm.Model(M, K, C=C, fixed_dofs=[1])
+    for force, toml in [
+        (nnm.Force(dofs=[0, 1], amplitude=1.0), "{ dofs = [0, 1], amplitude = 1.0 }"),
+        (nnm.Force(vector=[0.0, 2.0, 1.0, 0.0]), "{ vector = [0.0, 2.0, 1.0, 0.0] }"),
+    ]:
+        job = write_job(f"[model]\nmass = {M.tolist()}\nstiffness = {K.tolist()}\nfixed_dofs = [1]\n"
+                        f"damping = {{ matrix = {C.tolist()} }}\n"
+                        f'[[response]]\nname = "frc"\nforce = {toml}\nfrequency_start = 0.3\nfrequency_end = 1.8\n')
+        expected = cli_error(cli, "modes", job)
+        with pytest.raises(ValueError) as caught:
+            nnm.frequency_response(model, force, (0.3, 1.8))
+        message = str(caught.value)
+        assert "is fixed (`fixed_dofs`): a support takes the force" in message
+        assert expected.endswith(f"response `frc`: {message}"), (expected, message)
 
 
 @pytest.mark.parametrize(

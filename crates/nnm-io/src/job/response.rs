@@ -314,19 +314,27 @@ pub fn response_body(
 }
 
 /// A force as the table gives it.
-struct ForceForm {
-    /// At unit amplitude, in the computed model's numbering.
-    shape: HarmonicForce,
+#[derive(Debug, Clone)]
+pub struct ForceForm {
+    /// At unit amplitude, in the computed model's numbering (after `fixed_dofs`).
+    pub shape: HarmonicForce,
     /// The `amplitude` the table gives, if any.
-    amplitude: Option<f64>,
+    pub amplitude: Option<f64>,
     /// A `vector` or `file` force (which carries its own size).
-    vector: bool,
+    pub vector: bool,
 }
 
 const FORCE_FORMS: &str = "`force` must be { dofs = [..], amplitude = a }, { vector = [...] }, { file = \"f.mtx\" } or { engine_order = k, amplitude = a, sector_dof = j }";
 
-/// The force shape of a `force = { ... }` value (module notes on numbering).
-fn force_shape(
+/// The force shape of a `force = { ... }` value (a job file's, or the Python bindings'
+/// `nnm.Force` keys) for `structure`, the model computed. `fixed`: the model's fixed dofs;
+/// forced `dofs` and a `vector` or `file` are in the full numbering (before `fixed_dofs`, as
+/// springs' `dofs` are), so a forced dof that is fixed, or a vector's non-zero entry on one,
+/// is refused (a support takes that force); an engine order's `sector_dof` is in the computed
+/// model's numbering (module notes). Files are found relative to `base`. One function for
+/// both, so that a script and a job file number a forced dof alike and refuse the same
+/// forces with the same one-line messages.
+pub fn force_shape(
     value: &toml::Value,
     structure: &Structure,
     fixed: Option<&FixedDofs>,

@@ -3,8 +3,10 @@
 :class:`Force` mirrors the job file's ``force = { ... }`` keys, :func:`frequency_response`
 and :func:`force_response` compute a curve (a :class:`Response`) by shooting over the
 forcing period and pseudo-arclength continuation through folds (docs/method.md §19). The
-forms a force and a damping may take, their checks and messages are the library's
-(``nnm::forced``): a script and a job file are refused for the same reasons.
+forms a force and a damping may take, their numbering, checks and messages are the
+library's (the job file's own functions, ``nnm_io::job``): a script and a job file number a
+forced dof alike (before ``fixed_dofs``, as springs' dofs) and are refused for the same
+reasons.
 """
 
 from __future__ import annotations
@@ -35,9 +37,16 @@ class Force:
       sector ``s`` driven by ``a cos(Ωt − 2πks/N)`` (a wave travelling ``k`` sectors a
       revolution; sector-major numbering), ``0 ≤ k ≤ N/2``.
 
-    Dofs are 0-based, in the model's numbering. Dofs out of range, an engine order on a
+    Dofs are 0-based. Forced ``dofs`` and a ``vector`` are in the model's full numbering, the
+    numbering of ``M`` and ``K`` before ``fixed_dofs`` (as the dofs of nonlinear springs and a
+    damping matrix are, and as a job file's ``force`` is): a vector has one entry per dof of
+    ``M``. An engine order's ``sector_dof``, like ``output_dofs`` and the response's
+    ``output_dofs`` and ``phase_dof``, is in the numbering of the model computed (after
+    ``fixed_dofs``, ``model.dofs`` of them). Dofs out of range, a forced dof that is fixed (or a
+    vector's non-zero entry on one: a support takes that force), an engine order on a
     non-cyclic model and a vector of the wrong length are refused when a response is computed
-    (they depend on the model), with the job file's messages."""
+    (they depend on the model), with the job file's messages (the conversion is the job
+    file's own function)."""
 
     def __init__(
         self,
@@ -466,8 +475,11 @@ def frequency_response(
 
     ``force`` is a :class:`Force` or a dict of its keys. ``amplitudes=[a1, a2, ...]`` computes
     one curve per force level and returns them as :class:`Responses` (a list); without it one
-    :class:`Response` at the force's own amplitude. ``output_dofs`` (0-based): the dofs whose
-    peaks each point records (default: the forced dofs; for an engine order every blade's).
+    :class:`Response` at the force's own amplitude. Forced dofs are in the full numbering
+    (before ``fixed_dofs``, as springs' dofs; see :class:`Force`). ``output_dofs`` (0-based,
+    in the numbering of the model computed, after ``fixed_dofs``, as a job file's): the dofs
+    whose peaks each point records (default: the forced dofs, in that numbering; for an engine
+    order every blade's).
 
     Other keywords are the response's settings, with the job file's names, meanings and
     defaults: ``tolerance``, ``initial_step``, ``min_step``, ``max_step``,
@@ -485,7 +497,7 @@ def frequency_response(
     (``progress=True``: at once, ``False``: never).
 
     Raises ``ValueError`` for bad input (``frequency_end ≤ frequency_start``, a zero force,
-    forced dofs out of range, an engine order on a non-cyclic model, ...) with the job file's
+    forced dofs out of range or fixed, an engine order on a non-cyclic model, ...) with the job file's
     one-line message, and :class:`nnm.ContinuationError` (its ``response``: the points so
     far) when the curve cannot be followed to the end of the interval, unless
     ``raise_on_failure=False``, which returns that curve (see ``stop_kind``)."""
