@@ -264,6 +264,7 @@ pub fn response<'py>(
                     output_dofs.clone()
                 },
                 phase_dof: 0,
+                half_period: false,
                 stats: Default::default(),
                 continuation: Default::default(),
             };
