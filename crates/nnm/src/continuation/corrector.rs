@@ -35,14 +35,21 @@ pub enum CorrectorError<E: std::error::Error> {
     },
 }
 
+/// Chord solves a corrector allows per Newton iteration it allows: a chord that cuts the
+/// residual only fourfold a step (the forced response's threshold for asking an exact one)
+/// needs twenty steps from 1e-4 to 1e-16, against eight Newton iterations' allowance (a
+/// landing on the end of a sweep at tolerance 1e-12 ran out at eight).
+pub const CHORDS_PER_ITERATION: usize = 4;
+
 /// Newton from `start` on `F(u) = 0`, `direction · (u - anchor) = 0`, until the problem's
 /// relative residual is below `tolerance`; at most `max_iterations` iterations, and it gives
 /// up early when the residual grows a thousandfold. `newton_iterations` counts the solves.
 ///
 /// A problem may linearise some iterates by a chord (a neighbour's Jacobian,
 /// [`Linearization::is_exact`] false): those solves are cheap, and they are not counted as
-/// iterations — neither against `max_iterations` (their own allowance is as many again) nor in
-/// [`Corrected::iterations`], which the step control reads as the work a point took.
+/// iterations — neither against `max_iterations` (their own allowance is
+/// [`CHORDS_PER_ITERATION`] times as many) nor in [`Corrected::iterations`], which the step
+/// control reads as the work a point took.
 pub fn correct<P: ContinuationProblem>(
     problem: &mut P,
     start: &[f64],
@@ -72,7 +79,7 @@ pub fn correct<P: ContinuationProblem>(
         let spent = if evaluation.is_exact() {
             exact >= max_iterations
         } else {
-            chords >= max_iterations
+            chords >= CHORDS_PER_ITERATION * max_iterations
         };
         if spent || residual > 1e3 * first.max(tolerance) {
             return Err(CorrectorError::NoConvergence {
