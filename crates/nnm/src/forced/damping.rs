@@ -101,9 +101,12 @@ fn stiffness_entries<S: MechanicalSystem + ?Sized>(
     if let Some(pattern) = system.tangent_pattern() {
         let mut values = vec![0.0; pattern.nonzeros()];
         system.tangent_values(&zero, &mut values);
-        for i in 0..n {
-            for k in pattern.row_start[i]..pattern.row_start[i + 1] {
-                add(i, pattern.col[k], values[k]);
+        for (i, bounds) in pattern.row_start.windows(2).enumerate() {
+            for (&j, &k) in pattern.col[bounds[0]..bounds[1]]
+                .iter()
+                .zip(&values[bounds[0]..bounds[1]])
+            {
+                add(i, j, k);
             }
         }
         return;

@@ -188,7 +188,10 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<ForcedShooting<'_, '_, S>> for 
                 continue;
             }
             let value = |p: &ResponsePoint| critical(p, kind).map_or(f64::NAN, |c| c.0);
-            if !(value(&previous) * value(&next) < 0.0) {
+            // Both ends must bracket the crossing (a NaN — no multiplier of the kind — never
+            // does).
+            let bracketed = value(&previous) * value(&next) < 0.0;
+            if !bracketed {
                 continue;
             }
             if let Some(point) = self.locate(segment, value, self.tolerance) {

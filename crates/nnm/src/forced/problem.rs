@@ -353,21 +353,21 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     ) -> Result<(Vec<f64>, f64, f64), ForcedError> {
         let n = self.system.dofs();
         let count = self.samples;
-        let states = sample(self.integrator.as_mut(), self.system, z0, drive, count)?;
+        let states = sample(self.integrator.as_mut(), z0, drive, count)?;
         self.stats.integrations += 1;
         let dt = 2.0 * std::f64::consts::PI / (count as f64 * drive.frequency);
         let mut peaks = Vec::with_capacity(self.output_dofs.len());
         for &d in &self.output_dofs {
-            let x: Vec<f64> = states.iter().map(|(z, _)| z[d]).collect();
-            let v: Vec<f64> = states.iter().map(|(z, _)| z[n + d]).collect();
+            let x: Vec<f64> = states.iter().map(|z| z[d]).collect();
+            let v: Vec<f64> = states.iter().map(|z| z[n + d]).collect();
             let mut peak = x.iter().fold(0.0f64, |m, a| m.max(a.abs()));
             for (j, delay) in crate::analysis::peak_candidates(&x, &v, dt) {
                 let tau = j as f64 * 2.0 * std::f64::consts::PI / count as f64;
                 let z = if delay > 0.0 {
                     self.integrator
-                        .advance(&states[j].0, tau, delay * drive.frequency, drive)?
+                        .advance(&states[j], tau, delay * drive.frequency, drive)?
                 } else {
-                    states[j].0.clone()
+                    states[j].clone()
                 };
                 let mut rate = vec![0.0; 2 * n];
                 crate::integrate::forced::phase_field(
@@ -383,7 +383,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             peaks.push(peak);
         }
         let (mut a1, mut b1) = (0.0, 0.0);
-        for (k, (z, _)) in states.iter().enumerate() {
+        for (k, z) in states.iter().enumerate() {
             let tau = k as f64 * 2.0 * std::f64::consts::PI / count as f64;
             a1 += z[self.phase_dof] * tau.cos();
             b1 += z[self.phase_dof] * tau.sin();

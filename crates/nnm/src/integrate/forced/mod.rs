@@ -113,26 +113,20 @@ pub fn phase_field<S: crate::model::MechanicalSystem + ?Sized>(
     bottom.iter_mut().for_each(|b| *b *= scale);
 }
 
-/// The states at `τ_k = 2πk/count`, `k = 0..count` (the start included, the end not), each
-/// with its rate `dz/dt` (for peaks refined between samples).
-pub fn sample<S: crate::model::MechanicalSystem + ?Sized>(
+/// The states at `τ_k = 2πk/count`, `k = 0..count` (the start included, the end not).
+pub fn sample(
     integrator: &mut dyn ForcedIntegrator,
-    system: &crate::model::ForcedSystem<'_, S>,
     z0: &[f64],
     drive: Drive,
     count: usize,
-) -> Result<Vec<(Vec<f64>, Vec<f64>)>, IntegrationError> {
+) -> Result<Vec<Vec<f64>>, IntegrationError> {
     let count = count.max(1);
     let span = 2.0 * std::f64::consts::PI / count as f64;
     let mut z = z0.to_vec();
     let mut out = Vec::with_capacity(count);
     for k in 0..count {
-        let tau = k as f64 * span;
-        let mut rate = vec![0.0; z.len()];
-        phase_field(system, &z, tau, drive, &mut rate);
-        rate.iter_mut().for_each(|r| *r *= drive.frequency);
-        let next = integrator.advance(&z, tau, span, drive)?;
-        out.push((std::mem::replace(&mut z, next), rate));
+        let next = integrator.advance(&z, k as f64 * span, span, drive)?;
+        out.push(std::mem::replace(&mut z, next));
     }
     Ok(out)
 }
@@ -152,7 +146,7 @@ pub(crate) fn check_forced_request(
             z0.len()
         )));
     }
-    if !(drive.frequency.is_finite() && drive.frequency > 0.0) || !drive.amplitude.is_finite() {
+    if !(drive.frequency.is_finite() && drive.frequency > 0.0 && drive.amplitude.is_finite()) {
         return Err(IntegrationError::InvalidInput(format!(
             "the forcing frequency must be positive and the amplitude finite, got {} and {}",
             crate::number::Number(drive.frequency),
