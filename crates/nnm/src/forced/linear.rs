@@ -3,7 +3,7 @@
 //! and the scale of the response that the unknowns are measured in.
 
 use crate::linalg::{DenseLu, Mat};
-use crate::model::{Block, BlockMut, ForcedSystem, MechanicalSystem, dense_mass_matrix};
+use crate::model::{ForcedSystem, MechanicalSystem, dense_mass_matrix, dense_tangent};
 
 /// The model's linear operators at rest, dense (`K = K_t(0)`, `M`, `C`).
 pub(crate) struct LinearOperators {
@@ -17,14 +17,12 @@ pub(crate) struct LinearOperators {
 impl LinearOperators {
     pub(crate) fn new<S: MechanicalSystem + ?Sized>(system: &ForcedSystem<'_, S>) -> Self {
         let n = system.dofs();
-        let unit: Vec<f64> = (0..n * n)
-            .map(|k| if k % n == k / n { 1.0 } else { 0.0 })
-            .collect();
         let mut columns = vec![0.0; n * n];
-        system.system().tangent_stiffness(
+        dense_tangent(
+            system.system(),
             &vec![0.0; n],
-            Block::new(&unit, n, n, n),
-            BlockMut::new(&mut columns, n, n, n),
+            &mut columns,
+            &mut Vec::new(),
         );
         Self {
             stiffness: Mat::from_fn(n, n, |i, j| columns[j * n + i]),

@@ -106,6 +106,38 @@ pub trait MechanicalSystem: Sync {
     }
 }
 
+/// Writes `K_t(x)` of `system` into `out` as a dense column-major `n × n` matrix: from the
+/// system's tangent pattern when it gives one, else by products with the unit vectors (small
+/// models: the forced integrators' dense stage systems and the linear forced response).
+/// `scratch` keeps the pattern's values, or the identity block, between calls.
+pub fn dense_tangent<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    x: &[f64],
+    out: &mut [f64],
+    scratch: &mut Vec<f64>,
+) {
+    let n = x.len();
+    out[..n * n].fill(0.0);
+    if let Some(pattern) = system.tangent_pattern() {
+        scratch.resize(pattern.nonzeros(), 0.0);
+        system.tangent_values(x, scratch);
+        for (i, bounds) in pattern.row_start.windows(2).enumerate() {
+            for (&j, &k) in pattern.col[bounds[0]..bounds[1]]
+                .iter()
+                .zip(&scratch[bounds[0]..bounds[1]])
+            {
+                out[j * n + i] += k;
+            }
+        }
+        return;
+    }
+    if scratch.len() != n * n {
+        scratch.clear();
+        scratch.extend((0..n * n).map(|k| if k % n == k / n { 1.0 } else { 0.0 }));
+    }
+    system.tangent_stiffness(x, Block::new(scratch, n, n, n), BlockMut::new(out, n, n, n));
+}
+
 /// One nonlinear restoring force `f_e(x)` with potential `V_e` (`f_e = ∂V_e/∂x`).
 ///
 /// Elements must be conservative and depend on displacements only; [`Structure`] adds them up.

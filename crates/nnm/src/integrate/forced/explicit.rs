@@ -62,6 +62,8 @@ struct Workspace {
     damped: Vec<f64>,
     /// `M⁻¹F(τ)` (`n`).
     force: Vec<f64>,
+    /// Per direction, the largest displacement and velocity sensitivity (`2k`).
+    size: Vec<f64>,
     /// The error combinations.
     err_a: Vec<f64>,
     err_b: Vec<f64>,
@@ -291,7 +293,9 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
                 // Per direction, the largest displacement and velocity sensitivity set the
                 // scale of that direction's halves.
                 let relative = tol.relative.max(VARIATIONAL_TOLERANCE);
-                let mut size = vec![0.0f64; 2 * k];
+                let size = &mut ws.size;
+                size.clear();
+                size.resize(2 * k, 0.0);
                 for i in 0..n2 {
                     let half = usize::from(i >= n);
                     for c in 0..k {

@@ -34,7 +34,7 @@ use super::{Drive, ForcedFlow, ForcedIntegrator, check_forced_request, phase_fie
 use crate::integrate::collocation::Collocation;
 use crate::integrate::{IntegrationError, IntegrationStats, Tolerances};
 use crate::linalg::{self, DenseLu, Mat};
-use crate::model::{Block, BlockMut, ForcedSystem, Matrix, MechanicalSystem, dense_mass_matrix};
+use crate::model::{ForcedSystem, Matrix, MechanicalSystem, dense_mass_matrix, dense_tangent};
 
 /// Newton iterations allowed for one step's stage equations.
 const MAX_STAGE_ITERATIONS: usize = 20;
@@ -84,6 +84,8 @@ struct Workspace {
     values: Vec<f64>,
     rhs: Vec<f64>,
     displacement: Vec<f64>,
+    /// `−(X_i − x0)/Ω` of one stage.
+    moved: Vec<f64>,
 }
 
 impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
@@ -124,28 +126,6 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         self.steps
     }
 
-    /// `out = K_t(x)`, column-major `n × n`: on the system's pattern when it gives one, else
-    /// by products with the unit vectors.
-    fn tangent(&self, x: &[f64], out: &mut [f64], values: &mut Vec<f64>) {
-        let n = x.len();
-        let system = self.system.system();
-        out.fill(0.0);
-        if let Some(pattern) = system.tangent_pattern() {
-            values.resize(pattern.nonzeros(), 0.0);
-            system.tangent_values(x, values);
-            for i in 0..n {
-                for k in pattern.row_start[i]..pattern.row_start[i + 1] {
-                    out[pattern.col[k] * n + i] += values[k];
-                }
-            }
-            return;
-        }
-        let unit: Vec<f64> = (0..n * n)
-            .map(|k| if k % n == k / n { 1.0 } else { 0.0 })
-            .collect();
-        system.tangent_stiffness(x, Block::new(&unit, n, n, n), BlockMut::new(out, n, n, n));
-    }
-
     /// `V_i`, `X_i` of the module notes from `W`.
     fn stage_states(&self, x0: &[f64], v0: &[f64], h: f64, omega: f64, ws: &mut Workspace) {
         let n = x0.len();
@@ -174,7 +154,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 &ws.x[i * n..(i + 1) * n],
                 &mut ws.tangents[i * n * n..(i + 1) * n * n],
             );
-            self.tangent(x, tangent, &mut ws.values);
+            dense_tangent(self.system.system(), x, tangent, &mut ws.values);
         }
         stats.tangent_evaluations += s;
         ws.jacobian.resize(size * size, 0.0);
@@ -435,7 +415,9 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             );
             // The parameter columns: `M W_i − K_t(X_i)(X_i − x0)/Ω` and `−F(τ_i)`.
             let (w, x) = (&ws.w[i * n..(i + 1) * n], &ws.x[i * n..(i + 1) * n]);
-            let moved: Vec<f64> = (0..n).map(|q| -(x[q] - x0[q]) / omega).collect();
+            ws.moved.clear();
+            ws.moved.extend((0..n).map(|q| -(x[q] - x0[q]) / omega));
+            let moved = &ws.moved;
             let target =
                 &mut ws.rhs[omega_column * size + i * n..omega_column * size + (i + 1) * n];
             linalg::gemm(
@@ -451,7 +433,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 n,
                 true,
                 linalg::view(tangent, n, n, n),
-                linalg::view(&moved, n, 1, n),
+                linalg::view(moved, n, 1, n),
                 1.0,
             );
             ws.force.fill(0.0);
@@ -519,7 +501,12 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         let n = self.system.dofs();
         let mut stiffness = vec![0.0; n * n];
         let mut values = Vec::new();
-        self.tangent(&vec![0.0; n], &mut stiffness, &mut values);
+        dense_tangent(
+            self.system.system(),
+            &vec![0.0; n],
+            &mut stiffness,
+            &mut values,
+        );
         let cutoff = CUTOFF_HARMONICS * omega;
         let shifted: Vec<f64> = self
             .mass
