@@ -16,7 +16,7 @@
 
 use crate::continuation::{ContinuationProblem, Detail, Linearization, Solution};
 use crate::integrate::IntegrationError;
-use crate::integrate::forced::{Drive, ForcedIntegrator, sample};
+use crate::integrate::forced::{Drive, ForcedIntegrator, sample, sample_half_wave};
 use crate::linalg::{self, Complex, Mat};
 use crate::model::{ForcedSystem, MechanicalSystem};
 
@@ -353,7 +353,12 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     ) -> Result<(Vec<f64>, f64, f64), ForcedError> {
         let n = self.system.dofs();
         let count = self.samples;
-        let states = sample(self.integrator.as_mut(), z0, drive, count)?;
+        // A half-wave symmetric motion's second half is the first's negative: not integrated.
+        let states = if self.half_period && count % 2 == 0 {
+            sample_half_wave(self.integrator.as_mut(), z0, drive, count)?
+        } else {
+            sample(self.integrator.as_mut(), z0, drive, count)?
+        };
         self.stats.integrations += 1;
         let dt = 2.0 * std::f64::consts::PI / (count as f64 * drive.frequency);
         let mut peaks = Vec::with_capacity(self.output_dofs.len());

@@ -28,7 +28,7 @@ pub(super) struct LowRank {
 /// The linear part of the stage system at one step size, factorised, with what the low-rank
 /// update needs of it: `Z = J_lin⁻¹ U` (`s n × s p`) and `Vᵀ Z` (`s p × s p`). One per step
 /// size, shared by every step (and every recorded step) of an integration.
-pub(super) struct LinearStages {
+pub(in crate::integrate) struct LinearStages {
     pub(super) h: f64,
     pub(super) lu: SparseLu,
     pub(super) z: Vec<f64>,
@@ -64,7 +64,7 @@ impl LinearStages {
 /// The stage Jacobian of one step as a low-rank update of [`LinearStages`]: the blocks `D_i`
 /// (`p × p` each, row-major, stage after stage) and `S = I + D Vᵀ Z` factorised.
 #[derive(Clone)]
-pub(super) struct UpdatedStages {
+pub(in crate::integrate) struct UpdatedStages {
     linear: Arc<LinearStages>,
     d: Vec<f64>,
     s_lu: Option<DenseLu>,

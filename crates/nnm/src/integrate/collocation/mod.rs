@@ -61,10 +61,12 @@ use crate::integrate::{
     Flow, IntegrationError, IntegrationStats, Integrator, LinearizedFlow, Steps, Tolerances,
 };
 use crate::model::{Block, ExplicitForm, MechanicalSystem, SparseMatrix};
-use low_rank::LinearStages;
+pub(in crate::integrate) use low_rank::LinearStages;
 use recorded::{RecordedStep, VariationalBuffers, variational_step};
 use split::SplitStages;
-use stages::{SparseStages, StageLu};
+pub(in crate::integrate) use stages::{SparseStages, StageLu, StageMethod};
+pub(in crate::integrate) use step_count::low_pass;
+pub(in crate::integrate) use tangents::StageTangents;
 
 /// Newton iterations allowed per step (times four, counting refactorisations) before the
 /// step is declared failed.
@@ -74,7 +76,8 @@ const MAX_NEWTON: usize = 12;
 pub struct GaussLegendre<'a, S: MechanicalSystem + ?Sized> {
     form: ExplicitForm<'a, S>,
     method: &'static Collocation,
-    abar: Vec<Vec<f64>>,
+    /// `A` and `Ā = A²` by rows.
+    coefficients: StageMethod,
     bbar: Vec<f64>,
     tolerances: Tolerances,
     /// The step size of the last estimate, the horizon it was made for, and how often it has
@@ -127,24 +130,18 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
     pub fn new(system: &'a S, method: &'static Collocation, tolerances: Tolerances) -> Self {
         let s = method.c.len();
         let a = |i: usize, j: usize| method.a[i][j];
-        let abar: Vec<Vec<f64>> = (0..s)
-            .map(|i| {
-                (0..s)
-                    .map(|j| (0..s).map(|l| a(i, l) * a(l, j)).sum())
-                    .collect()
-            })
-            .collect();
+        let coefficients = StageMethod::new(method);
         let bbar = (0..s)
             .map(|j| (0..s).map(|l| method.b[l] * a(l, j)).sum())
             .collect();
         let n = system.dofs();
         let mass = crate::model::mass_entries(system.mass());
         let sparse = system.tangent_pattern().and_then(|pattern| {
-            SparseStages::new(pattern, &mass, method.c.len())
+            SparseStages::new(pattern, &mass, None, method.c.len())
                 .map(|stages| stages.with_low_rank(system, method.c.len()))
         });
         let split = if n > SPLIT_DOFS {
-            Self::split_stages(system, sparse.as_ref(), &mass, &abar)
+            Self::split_stages(system, sparse.as_ref(), &mass, &coefficients.abar)
         } else {
             None
         };
@@ -159,7 +156,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         Self {
             form: ExplicitForm::new(system),
             method,
-            abar,
+            coefficients,
             bbar,
             tolerances,
             chosen: None,
@@ -179,7 +176,10 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
             for r in 0..n {
                 states[i * n + r] = x[r]
                     + h * self.method.c[i] * v[r]
-                    + h * h * (0..s).map(|j| self.abar[i][j] * w[j * n + r]).sum::<f64>();
+                    + h * h
+                        * (0..s)
+                            .map(|j| self.coefficients.abar[i][j] * w[j * n + r])
+                            .sum::<f64>();
             }
         }
         states

@@ -222,7 +222,7 @@ fn split_solve<T: SplitScalar>(
 
 /// `P` of one step, factorised ([`SplitStages::factorise`]).
 #[derive(Clone)]
-pub(super) struct SplitLu {
+pub(in crate::integrate) struct SplitLu {
     eigen: Arc<StageEigen>,
     real: Vec<SparseLu<f64>>,
     complex: Vec<SparseLu<c64>>,

@@ -1,46 +1,63 @@
-//! The stage system `J_ij = M δ_ij + h² Ā_ij K_t(X_i)` of a collocation step (docs/method.md
-//! eqs. (32a)–(32f)): its sparse pattern, analysed once, and its factorisation — whole (sparse,
-//! or dense when the system gives no tangent pattern), as a low-rank update of its linear part
-//! (`low_rank.rs`), or split into systems of the model's size (`split.rs`).
+//! The stage system `J_ij = M δ_ij + h A_ij C + h² Ā_ij K_t(X_i)` of a collocation step
+//! (docs/method.md eqs. (32a)–(32f); `C = 0` for free motions, eq. (96) for forced ones): its
+//! sparse pattern, analysed once, and its factorisation — whole (sparse, or dense when the
+//! system gives no tangent pattern), as a low-rank update of its linear part (`low_rank.rs`),
+//! or split into systems of the model's size (`split.rs`).
 
 use std::sync::Arc;
 
-use super::GaussLegendre;
 use super::low_rank::{LOW_RANK_MAX, LinearStages, LowRank, UpdatedStages};
 use super::split::{SplitLu, SplitStages, StageEigen};
 use super::tangents::StageTangents;
+use super::{Collocation, GaussLegendre};
 use crate::integrate::IntegrationError;
 use crate::linalg::{DenseLu, Mat, SparseLu, SparseLuPattern};
 use crate::model::{Block, BlockMut, MechanicalSystem, SparseMatrix, SparsityPattern};
 
-/// The stage Jacobian `J_ij = M δ_ij + h² Ā_ij K_t(X_i)` as a sparse matrix: its structure
-/// (every block on the union of `M`'s and `K_t`'s patterns), analysed once, and for each entry
-/// where its values come from.
-pub(super) struct SparseStages {
+/// The stage Jacobian `J_ij = M δ_ij + h A_ij C + h² Ā_ij K_t(X_i)` as a sparse matrix: its
+/// structure (every block on the union of `M`'s, `C`'s and `K_t`'s patterns), analysed once,
+/// and for each entry where its values come from.
+pub(in crate::integrate) struct SparseStages {
     /// `K_t`'s pattern (compressed rows), shared with the tangents a step records.
     tangent: Arc<SparsityPattern>,
     pub(super) lu: SparseLuPattern,
     /// Per entry of `J` in compressed-column order: its blocks `(i, j)`, its `M` value (on
-    /// diagonal blocks) and its position in `K_t`'s values, if there is one.
-    entries: Vec<(usize, usize, f64, Option<usize>)>,
+    /// diagonal blocks), its `C` value and its position in `K_t`'s values, if there is one.
+    entries: Vec<StageEntry>,
     /// When the nonlinearity is localised: the stage system as a low-rank update of its
     /// linear part (eq. (32e)).
     low_rank: Option<LowRank>,
 }
 
+/// Where one entry of the stage Jacobian takes its value from.
+#[derive(Clone, Copy)]
+struct StageEntry {
+    /// Its block row and column `(i, j)`.
+    block: (usize, usize),
+    /// `M`'s entry (diagonal blocks only) and `C`'s at its place in the block.
+    mass: f64,
+    damping: f64,
+    /// Its position in `K_t`'s values, if the tangent's pattern has it.
+    slot: Option<usize>,
+}
+
 impl SparseStages {
-    pub(super) fn new(
+    /// The pattern of the `stages`-stage system of `M`, `K_t` (on `tangent`) and, for forced
+    /// motions, `C`.
+    pub(in crate::integrate) fn new(
         tangent: &SparsityPattern,
         mass: &SparseMatrix,
+        damping: Option<&SparseMatrix>,
         stages: usize,
     ) -> Option<Self> {
         let n = mass.dimension();
         let m_pattern = mass.pattern();
-        // The union pattern, by columns (both patterns are those of symmetric matrices, but
+        // The union pattern, by columns (the patterns are those of symmetric matrices, but
         // the columns are collected explicitly all the same).
         let mut columns: Vec<Vec<usize>> = vec![Vec::new(); n];
+        let patterns = [Some(tangent), Some(m_pattern), damping.map(|c| c.pattern())];
         for r in 0..n {
-            for pattern in [tangent, m_pattern] {
+            for pattern in patterns.iter().flatten() {
                 for &c in &pattern.col[pattern.row_start[r]..pattern.row_start[r + 1]] {
                     columns[c].push(r);
                 }
@@ -60,7 +77,15 @@ impl SparseStages {
                             Some(p) if bi == bj => mass.values()[p],
                             _ => 0.0,
                         };
-                        entries.push((bi, bj, m, tangent.position(r, c)));
+                        let damping = damping
+                            .and_then(|d| Some(d.values()[d.pattern().position(r, c)?]))
+                            .unwrap_or(0.0);
+                        entries.push(StageEntry {
+                            block: (bi, bj),
+                            mass: m,
+                            damping,
+                            slot: tangent.position(r, c),
+                        });
                     }
                 }
                 col_ptr.push(row_idx.len());
@@ -76,7 +101,7 @@ impl SparseStages {
 
     /// Solves the stage systems of `system` as low-rank updates (eq. (32e)) when its
     /// nonlinearity lives on few enough dofs.
-    pub(super) fn with_low_rank<S: MechanicalSystem + ?Sized>(
+    pub(in crate::integrate) fn with_low_rank<S: MechanicalSystem + ?Sized>(
         mut self,
         system: &S,
         stages: usize,
@@ -97,13 +122,16 @@ impl SparseStages {
     }
 
     /// The linear part of the stage system at step `h`, factorised ([`LinearStages`]).
-    fn linear(&self, low_rank: &LowRank, h: f64, abar: &[Vec<f64>]) -> Option<LinearStages> {
+    fn linear(&self, low_rank: &LowRank, h: f64, method: &StageMethod) -> Option<LinearStages> {
+        let abar = &method.abar;
         let s = abar.len();
         let n = self.tangent.row_start.len() - 1;
         let rest: Vec<Vec<f64>> = vec![low_rank.rest.clone(); s];
-        let lu = self
-            .lu
-            .factorise(&self.values(|i, j| h * h * abar[i][j], &rest))?;
+        let lu = self.lu.factorise(&self.damped_values(
+            |i, j| h * h * abar[i][j],
+            |i, j| h * method.a[i][j],
+            &rest,
+        ))?;
         let (p, m) = (low_rank.dofs.len(), s * n);
         let sp = s * p;
         let mut z = vec![0.0; m * sp];
@@ -127,7 +155,7 @@ impl SparseStages {
     }
 
     /// The values of `J_ij = M δ_ij + scale(i, j) K_i` in the pattern's order, from the
-    /// tangents `K_i` given on the system's pattern.
+    /// tangents `K_i` given on the system's pattern (free motions: no `C`).
     pub(super) fn values(
         &self,
         scale: impl Fn(usize, usize) -> f64,
@@ -135,14 +163,106 @@ impl SparseStages {
     ) -> Vec<f64> {
         self.entries
             .iter()
-            .map(|&(bi, bj, m, slot)| m + slot.map_or(0.0, |p| scale(bi, bj) * tangents[bi][p]))
+            .map(|e| {
+                let (bi, bj) = e.block;
+                e.mass + e.slot.map_or(0.0, |p| scale(bi, bj) * tangents[bi][p])
+            })
             .collect()
+    }
+
+    /// The values of `J_ij = M δ_ij + damping(i, j) C + scale(i, j) K_i` (eq. (96)).
+    fn damped_values(
+        &self,
+        scale: impl Fn(usize, usize) -> f64,
+        damping: impl Fn(usize, usize) -> f64,
+        tangents: &[Vec<f64>],
+    ) -> Vec<f64> {
+        self.entries
+            .iter()
+            .map(|e| {
+                let (bi, bj) = e.block;
+                let c = if e.damping == 0.0 {
+                    0.0
+                } else {
+                    damping(bi, bj) * e.damping
+                };
+                e.mass + c + e.slot.map_or(0.0, |p| scale(bi, bj) * tangents[bi][p])
+            })
+            .collect()
+    }
+
+    /// The tangents `K_t(X_i)` at the stage states (`s × n`), on the system's pattern.
+    fn tangents<S: MechanicalSystem + ?Sized>(&self, system: &S, states: &[f64]) -> Vec<Vec<f64>> {
+        let n = system.dofs();
+        states
+            .chunks(n)
+            .map(|x| {
+                let mut values = vec![0.0; self.tangent.nonzeros()];
+                system.tangent_values(x, &mut values);
+                values
+            })
+            .collect()
+    }
+
+    /// The exact stage Jacobian `J_ij = M δ_ij + h A_ij C + h² Ā_ij K_t(X_i)` at the stage
+    /// states, factorised whole or, for a localised nonlinearity, as a low-rank update of its
+    /// linear part at `h` (kept in `linear` for the steps of the same size); with the tangents
+    /// it was built from. `None` when it is singular.
+    pub(in crate::integrate) fn factorise<S: MechanicalSystem + ?Sized>(
+        &self,
+        system: &S,
+        states: &[f64],
+        h: f64,
+        method: &StageMethod,
+        linear: &mut Option<Arc<LinearStages>>,
+    ) -> Option<(StageLu, StageTangents)> {
+        let tangents = self.tangents(system, states);
+        let lu = match &self.low_rank {
+            Some(low_rank) => {
+                if linear.as_ref().is_none_or(|l| l.h != h) {
+                    *linear = Some(Arc::new(self.linear(low_rank, h, method)?));
+                }
+                let base = linear.clone().expect("just made");
+                StageLu::LowRank(low_rank.update(system, base, states)?)
+            }
+            None => {
+                let values = self.damped_values(
+                    |bi, bj| h * h * method.abar[bi][bj],
+                    |bi, bj| h * method.a[bi][bj],
+                    &tangents,
+                );
+                StageLu::Sparse(self.lu.factorise(&values)?)
+            }
+        };
+        Some((lu, StageTangents::Sparse(self.tangent.clone(), tangents)))
+    }
+}
+
+/// A collocation method's coefficients as the stage system uses them: `A` and `Ā = A²`, by
+/// rows.
+pub(in crate::integrate) struct StageMethod {
+    pub(in crate::integrate) a: Vec<Vec<f64>>,
+    pub(in crate::integrate) abar: Vec<Vec<f64>>,
+}
+
+impl StageMethod {
+    pub(in crate::integrate) fn new(method: &Collocation) -> Self {
+        let a: Vec<Vec<f64>> = method.a.iter().map(|row| row.to_vec()).collect();
+        let s = a.len();
+        let abar = (0..s)
+            .map(|i| {
+                (0..s)
+                    .map(|j| (0..s).map(|l| a[i][l] * a[l][j]).sum())
+                    .collect()
+            })
+            .collect();
+        Self { a, abar }
     }
 }
 
 /// A factorised stage Jacobian: exact, or the split approximation `P` (eq. (32f)).
 #[derive(Clone)]
-pub(super) enum StageLu {
+pub(in crate::integrate) enum StageLu {
     Dense(DenseLu),
     Sparse(SparseLu),
     LowRank(UpdatedStages),
@@ -151,7 +271,7 @@ pub(super) enum StageLu {
 
 impl StageLu {
     /// `J⁻¹ B` (`P⁻¹ B` for the split approximation): what the stage Newton iteration needs.
-    pub(super) fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+    pub(in crate::integrate) fn solve_in_place(&self, b: &mut [f64], cols: usize) {
         match self {
             StageLu::Dense(lu) => lu.solve_in_place(b, cols),
             StageLu::Sparse(lu) => lu.solve_in_place(b, cols),
@@ -184,8 +304,8 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
         if sparse?.low_rank.is_some() {
             return None;
         }
-        let single = SparseStages::new(pattern, mass, 1)?;
-        let entries = single.entries.iter().map(|&(_, _, m, p)| (m, p)).collect();
+        let single = SparseStages::new(pattern, mass, None, 1)?;
+        let entries = single.entries.iter().map(|e| (e.mass, e.slot)).collect();
         let eigen = StageEigen::new(abar)?;
         Some(SplitStages::new(
             eigen,
@@ -203,7 +323,7 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
             self.form.system(),
             self.sparse.as_ref(),
             &self.mass,
-            &self.abar,
+            &self.coefficients.abar,
         );
         assert!(self.split.is_some(), "a sparse model, nonlinear everywhere");
         self
@@ -234,32 +354,19 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
             ))
         };
         if let Some(sparse) = &self.sparse {
-            let tangents: Vec<Vec<f64>> = (0..s)
-                .map(|i| {
-                    let mut values = vec![0.0; sparse.tangent.nonzeros()];
-                    system.tangent_values(&states[i * n..(i + 1) * n], &mut values);
-                    values
-                })
-                .collect();
-            let lu = match (&sparse.low_rank, self.split.as_ref().filter(|_| split)) {
-                (None, Some(split)) => StageLu::Split(Arc::new(
-                    split.factorise(h, &tangents).ok_or_else(singular)?,
-                )),
-                (Some(low_rank), _) => {
-                    if linear.as_ref().is_none_or(|l| l.h != h) {
-                        let stages = sparse.linear(low_rank, h, &self.abar);
-                        *linear = Some(Arc::new(stages.ok_or_else(singular)?));
-                    }
-                    let base = linear.clone().expect("just made");
-                    let update = low_rank.update(system, base, states);
-                    StageLu::LowRank(update.ok_or_else(singular)?)
-                }
-                (None, None) => {
-                    let values = sparse.values(|bi, bj| h * h * self.abar[bi][bj], &tangents);
-                    StageLu::Sparse(sparse.lu.factorise(&values).ok_or_else(singular)?)
-                }
-            };
-            return Ok((lu, StageTangents::Sparse(sparse.tangent.clone(), tangents)));
+            if let Some(split) = self
+                .split
+                .as_ref()
+                .filter(|_| split && sparse.low_rank.is_none())
+            {
+                let tangents = sparse.tangents(system, states);
+                let lu = split.factorise(h, &tangents).ok_or_else(singular)?;
+                let tangents = StageTangents::Sparse(sparse.tangent.clone(), tangents);
+                return Ok((StageLu::Split(Arc::new(lu)), tangents));
+            }
+            return sparse
+                .factorise(system, states, h, &self.coefficients, linear)
+                .ok_or_else(singular);
         }
         let m = s * n;
         let mut tangents = vec![0.0; s * n * n];
@@ -272,7 +379,7 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
         }
         let mut jacobian = Mat::<f64>::from_fn(m, m, |row, col| {
             let (bi, r, bj, c) = (row / n, row % n, col / n, col % n);
-            h * h * self.abar[bi][bj] * tangents[bi * n * n + c * n + r]
+            h * h * self.coefficients.abar[bi][bj] * tangents[bi * n * n + c * n + r]
         });
         for i in 0..s {
             self.add_mass(&mut jacobian, i * n);

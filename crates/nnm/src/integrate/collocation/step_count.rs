@@ -7,7 +7,7 @@ use super::stages::{SparseStages, StageLu};
 use super::{GaussLegendre, StepCache};
 use crate::integrate::{IntegrationError, IntegrationStats};
 use crate::linalg::{self, DenseLu, Mat};
-use crate::model::{Block, BlockMut, MechanicalSystem};
+use crate::model::{MechanicalSystem, SparseMatrix, dense_tangent};
 
 /// The first step count tried when nothing is known yet; the count chosen is at least twice
 /// this. Why not fewer: with `N` steps over a half period, the stiff modes that the stages do
@@ -23,41 +23,45 @@ const REUSE: usize = 64;
 /// estimate (eq. (32d)).
 const CUTOFF_CYCLES: f64 = 8.0;
 
-impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
-    /// The low-pass filter of the step-count estimate: `M + K₀/ω_c²` factorised, `K₀` the
-    /// tangent at rest (docs/method.md eq. (32d)). Applied to `M d`, it passes a displacement
-    /// `d`'s components in the linear modes with `ω_k ≪ ω_c` and attenuates those above by
-    /// `(ω_c/ω_k)²`.
-    fn low_pass(&self, cutoff: f64) -> Result<StageLu, IntegrationError> {
-        let system = self.form.system();
-        let n = system.dofs();
-        let alpha = 1.0 / (cutoff * cutoff);
-        let rest = vec![0.0; n];
-        let singular = || {
-            IntegrationError::InvalidInput(
-                "M + K/ω² is singular: the stiffness at rest is not positive semi-definite".into(),
-            )
-        };
-        if let Some(pattern) = system.tangent_pattern() {
-            let single = SparseStages::new(pattern, &self.mass, 1).ok_or_else(singular)?;
-            let mut tangent = vec![0.0; pattern.nonzeros()];
-            system.tangent_values(&rest, &mut tangent);
-            let values = single.values(|_, _| alpha, &[tangent]);
-            return Ok(StageLu::Sparse(
-                single.lu.factorise(&values).ok_or_else(singular)?,
-            ));
-        }
-        let mut tangent = vec![0.0; n * n];
-        system.tangent_stiffness(
-            &rest,
-            Block::new(&self.identity, n, n, n),
-            BlockMut::new(&mut tangent, n, n, n),
-        );
-        let mut shifted = Mat::<f64>::from_fn(n, n, |r, c| alpha * tangent[c * n + r]);
-        self.add_mass(&mut shifted, 0);
-        Ok(StageLu::Dense(DenseLu::new(shifted.as_ref())))
+/// The low-pass filter of the step-count estimate: `M + K₀/ω_c²` factorised, `K₀` the
+/// tangent at rest (docs/method.md eq. (32d)). Applied to `M d`, it passes a displacement
+/// `d`'s components in the linear modes with `ω_k ≪ ω_c` and attenuates those above by
+/// `(ω_c/ω_k)²`. Free and forced collocation both estimate their step counts through it.
+pub(in crate::integrate) fn low_pass<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    mass: &SparseMatrix,
+    cutoff: f64,
+) -> Result<StageLu, IntegrationError> {
+    let n = system.dofs();
+    let alpha = 1.0 / (cutoff * cutoff);
+    let rest = vec![0.0; n];
+    let singular = || {
+        IntegrationError::InvalidInput(
+            "M + K/ω² is singular: the stiffness at rest is not positive semi-definite".into(),
+        )
+    };
+    if let Some(pattern) = system.tangent_pattern() {
+        let single = SparseStages::new(pattern, mass, None, 1).ok_or_else(singular)?;
+        let mut tangent = vec![0.0; pattern.nonzeros()];
+        system.tangent_values(&rest, &mut tangent);
+        let values = single.values(|_, _| alpha, &[tangent]);
+        return Ok(StageLu::Sparse(
+            single.lu.factorise(&values).ok_or_else(singular)?,
+        ));
     }
+    let mut tangent = vec![0.0; n * n];
+    dense_tangent(system, &rest, &mut tangent, &mut Vec::new());
+    let mut shifted = Mat::<f64>::from_fn(n, n, |r, c| alpha * tangent[c * n + r]);
+    let pattern = mass.pattern();
+    for r in 0..n {
+        for p in pattern.row_start[r]..pattern.row_start[r + 1] {
+            shifted[(r, pattern.col[p])] += mass.values()[p];
+        }
+    }
+    Ok(StageLu::Dense(DenseLu::new(shifted.as_ref())))
+}
 
+impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
     /// `√(yᵀ M y)` with `(M + K₀/ω_c²) y = M x`, `x` the displacements of `z`: the mass norm
     /// of the displacements' slow part (eq. (32d)). The step count is chosen on this norm of
     /// the error, taken at the middle and at the end of the horizon (a phase error hides in
@@ -139,7 +143,11 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
         );
         let p = self.method.order as f64;
         // The motion's slow part: components below `CUTOFF_CYCLES` cycles over the horizon.
-        let filter = self.low_pass(2.0 * std::f64::consts::PI * CUTOFF_CYCLES / duration)?;
+        let filter = low_pass(
+            self.form.system(),
+            &self.mass,
+            2.0 * std::f64::consts::PI * CUTOFF_CYCLES / duration,
+        )?;
         let mut trials: Vec<(usize, f64)> = Vec::new();
         loop {
             if 2 * steps > self.max_steps {

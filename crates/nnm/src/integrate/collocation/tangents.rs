@@ -9,7 +9,7 @@ use crate::model::SparsityPattern;
 
 /// The tangents `K_t(X_i)` the stage Jacobian was built from: dense `n × n` each, or values on
 /// the system's pattern.
-pub(super) enum StageTangents {
+pub(in crate::integrate) enum StageTangents {
     Dense(Vec<f64>),
     Sparse(Arc<SparsityPattern>, Vec<Vec<f64>>),
 }
@@ -20,7 +20,7 @@ impl StageTangents {
     /// tangent's rows serves every direction with contiguous, vectorisable updates: on a
     /// 100-element beam, where this product over the `n` sensitivity directions is the largest
     /// cost of a step, it was 18% of the branch applied direction by direction.
-    pub(super) fn apply_block(
+    pub(in crate::integrate) fn apply_block(
         &self,
         i: usize,
         d: &[f64],
@@ -83,7 +83,7 @@ impl StageTangents {
     }
 
     /// `out = K_t(X_i) d`.
-    pub(super) fn apply(&self, i: usize, d: &[f64], out: &mut [f64]) {
+    pub(in crate::integrate) fn apply(&self, i: usize, d: &[f64], out: &mut [f64]) {
         let n = d.len();
         match self {
             StageTangents::Dense(all) => {

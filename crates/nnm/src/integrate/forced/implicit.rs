@@ -9,7 +9,10 @@
 //! ```
 //!
 //! and the stage equations `R_i = Ω M W_i + C V_i + f_int(X_i) − a F(τ_i) = 0` are solved by
-//! Newton with the exact Jacobian `∂R_i/∂W_j = Ω M δ_ij + h a_ij C + (h²/Ω) ā_ij K_t(X_i)`.
+//! Newton with the exact Jacobian `∂R_i/∂W_j = Ω M δ_ij + h a_ij C + (h²/Ω) ā_ij K_t(X_i)`,
+//! i.e. `Ω` times the free motion's stage Jacobian with the time step `h/Ω` and the damping
+//! term `(h/Ω) a_ij C` (eq. (96)): the same sparse stage system, factorised whole or, for a
+//! localised nonlinearity, as a low-rank update of its linear part (eq. (32e)), serves both.
 //! The sensitivities of the step follow from the same factorised Jacobian:
 //! `J δW = −[δΩ M W_i + C δv0 + K_t(X_i)(δx0 + (h c_i/Ω) δv0 − δΩ (X_i − x0)/Ω) − δa F(τ_i)]`,
 //! then `δv1 = δv0 + h Σ b_j δW_j`, `δx1 = δx0 + (h/Ω) δv0 + (h²/Ω) Σ (bᵀA)_j δW_j −
@@ -26,15 +29,19 @@
 //! The stage iteration is a simplified Newton iteration on the last factorised Jacobian
 //! (from the step before: equal steps, slowly varying tangents), refactorised when it stops
 //! contracting; an integration with sensitivities factorises the exact Jacobian at every
-//! converged step, which its sensitivities need and the next step's iteration reuses. The
-//! stage system is dense (`s·n` square): this integrator serves models of up to a few hundred
-//! dofs.
+//! converged step, which its sensitivities need and the next step's iteration reuses. A model
+//! that gives its tangent on a pattern has a sparse stage system (no `n × n` array is formed);
+//! one that does not, a dense one.
+
+use std::sync::Arc;
 
 use super::{Drive, ForcedFlow, ForcedIntegrator, check_forced_request, phase_field};
-use crate::integrate::collocation::Collocation;
+use crate::integrate::collocation::{
+    Collocation, LinearStages, SparseStages, StageLu, StageMethod, StageTangents, low_pass,
+};
 use crate::integrate::{IntegrationError, IntegrationStats, Tolerances};
-use crate::linalg::{self, DenseLu, Mat};
-use crate::model::{ForcedSystem, Matrix, MechanicalSystem, dense_mass_matrix, dense_tangent};
+use crate::linalg::{DenseLu, Mat};
+use crate::model::{ForcedSystem, Matrix, MechanicalSystem, SparseMatrix, dense_tangent};
 
 /// Newton iterations allowed for one step's stage equations.
 const MAX_STAGE_ITERATIONS: usize = 20;
@@ -47,6 +54,12 @@ const MAX_STEPS: usize = 200_000;
 /// The step count controls the error of the motion below this many harmonics of the force
 /// (the low-pass filter of the module notes).
 const CUTOFF_HARMONICS: f64 = 16.0;
+/// An estimate of the step count serves the points after it while the frequency stays within
+/// this fraction of the one it was made at and the state's size within this factor, for at
+/// most [`REUSE`] points: the error of a fixed step count moves with the motion, slowly.
+const REUSE_FREQUENCY: f64 = 0.02;
+const REUSE_SIZE: f64 = 1.25;
+const REUSE: usize = 8;
 
 /// Implicit collocation of a forced system with equal steps.
 pub struct ForcedCollocation<'s, 'a, S: MechanicalSystem + ?Sized> {
@@ -56,36 +69,55 @@ pub struct ForcedCollocation<'s, 'a, S: MechanicalSystem + ?Sized> {
     pub tolerances: Tolerances,
     /// Equal steps a period.
     steps: usize,
-    /// `M`, `C`, column-major `n × n`.
-    mass: Vec<f64>,
-    damping: Vec<f64>,
-    /// `Ā = A²`, row-major `s × s`.
-    abar: Vec<f64>,
+    /// Where the step count was last estimated (frequency, RMS size of the state) and how
+    /// many points it has served since.
+    estimate: Option<(f64, f64, usize)>,
+    /// `M`'s entries.
+    mass: SparseMatrix,
+    /// The stage system's structure.
+    stages: Stages,
+    /// `A` and `Ā = A²`.
+    coefficients: StageMethod,
     /// `bᵀA`.
     bta: Vec<f64>,
     ws: Workspace,
 }
 
+/// How the stage system is assembled and factorised.
+enum Stages {
+    /// On the union of `M`'s, `C`'s and `K_t`'s patterns (shared with free collocation).
+    Sparse(SparseStages),
+    /// Dense, for systems that give no tangent pattern: `M` and `C` column-major `n × n`.
+    Dense { mass: Vec<f64>, damping: Vec<f64> },
+}
+
 /// What one step leaves for the next, and the step's scratch.
 #[derive(Default)]
 struct Workspace {
-    /// The factorised stage Jacobian the iteration uses, and whether it is exact at the
-    /// current stages (made this step at the converged stages).
-    lu: Option<DenseLu>,
+    /// The factorised stage Jacobian the iteration uses, divided by `Ω` (eq. (96)), and the
+    /// tangents it was made from.
+    lu: Option<StageLu>,
+    tangents: Option<StageTangents>,
+    /// The linear part of a low-rank stage system at the current step (eq. (32e)).
+    linear: Option<Arc<LinearStages>>,
     /// `W`, `s × n`, of the last step (the next step's first iterate).
     w: Vec<f64>,
     x: Vec<f64>,
     v: Vec<f64>,
     residual: Vec<f64>,
-    /// `K_t(X_i)`, `s` column-major `n × n` blocks.
-    tangents: Vec<f64>,
-    jacobian: Vec<f64>,
     force: Vec<f64>,
+    /// A dense tangent's pattern values or identity block.
     values: Vec<f64>,
     rhs: Vec<f64>,
+    /// `δx0 + (h c_i/Ω) δv0` of every sensitivity column, direction-fastest (`n × cols`).
     displacement: Vec<f64>,
-    /// `−(X_i − x0)/Ω` of one stage.
+    /// One row of a tangent–block product.
+    row: Vec<f64>,
+    /// `−(X_i − x0)/Ω` of one stage, and its product with the tangent.
     moved: Vec<f64>,
+    product: Vec<f64>,
+    /// `C δv0` of every sensitivity column (`n × cols`).
+    damped: Vec<f64>,
 }
 
 impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
@@ -97,25 +129,35 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         tolerances: Tolerances,
     ) -> Self {
         let s = method.c.len();
-        let a = |i: usize, j: usize| method.a[i][j];
-        let abar = (0..s * s)
-            .map(|k| (0..s).map(|l| a(k / s, l) * a(l, k % s)).sum())
-            .collect();
+        let coefficients = StageMethod::new(method);
         let bta = (0..s)
-            .map(|j| (0..s).map(|l| method.b[l] * a(l, j)).sum())
+            .map(|j| (0..s).map(|l| method.b[l] * method.a[l][j]).sum())
             .collect();
+        let mass = crate::model::mass_entries(system.system().mass());
         let column_major = |m: Mat<f64>| {
             let n = m.nrows();
             (0..n * n).map(|k| m[(k % n, k / n)]).collect()
+        };
+        let inner = system.system();
+        let stages = match inner.tangent_pattern().and_then(|pattern| {
+            SparseStages::new(pattern, &mass, Some(system.damping()), s)
+                .map(|stages| stages.with_low_rank(inner, s))
+        }) {
+            Some(sparse) => Stages::Sparse(sparse),
+            None => Stages::Dense {
+                mass: column_major(Matrix::Sparse(mass.clone()).to_dense()),
+                damping: column_major(Matrix::Sparse(system.damping().clone()).to_dense()),
+            },
         };
         Self {
             system,
             method,
             tolerances,
             steps: INITIAL_STEPS,
-            mass: column_major(dense_mass_matrix(system.system().mass())),
-            damping: column_major(Matrix::Sparse(system.damping().clone()).to_dense()),
-            abar,
+            estimate: None,
+            mass,
+            stages,
+            coefficients,
             bta,
             ws: Workspace::default(),
         }
@@ -130,12 +172,13 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
     fn stage_states(&self, x0: &[f64], v0: &[f64], h: f64, omega: f64, ws: &mut Workspace) {
         let n = x0.len();
         let s = self.method.c.len();
+        let (a, abar) = (&self.coefficients.a, &self.coefficients.abar);
         for i in 0..s {
             for p in 0..n {
                 let (mut dv, mut dx) = (0.0, 0.0);
                 for j in 0..s {
-                    dv += self.method.a[i][j] * ws.w[j * n + p];
-                    dx += self.abar[i * s + j] * ws.w[j * n + p];
+                    dv += a[i][j] * ws.w[j * n + p];
+                    dx += abar[i][j] * ws.w[j * n + p];
                 }
                 ws.v[i * n + p] = v0[p] + h * dv;
                 ws.x[i * n + p] = x0[p] + h * self.method.c[i] / omega * v0[p] + h * h / omega * dx;
@@ -143,45 +186,49 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         }
     }
 
-    /// Factorises the stage Jacobian (eq. (96)) at the current stage states.
-    fn factorise(&self, h: f64, omega: f64, ws: &mut Workspace, stats: &mut IntegrationStats) {
+    /// Factorises the stage Jacobian (eq. (96)) divided by `Ω`, `M δ_ij + (h/Ω) a_ij C +
+    /// (h/Ω)² ā_ij K_t(X_i)`, at the current stage states.
+    fn factorise(
+        &self,
+        h: f64,
+        omega: f64,
+        ws: &mut Workspace,
+        stats: &mut IntegrationStats,
+    ) -> Result<(), IntegrationError> {
         let n = self.system.dofs();
         let s = self.method.c.len();
-        let size = s * n;
-        ws.tangents.resize(s * n * n, 0.0);
-        for i in 0..s {
-            let (x, tangent) = (
-                &ws.x[i * n..(i + 1) * n],
-                &mut ws.tangents[i * n * n..(i + 1) * n * n],
-            );
-            dense_tangent(self.system.system(), x, tangent, &mut ws.values);
-        }
+        let step = h / omega;
+        let system = self.system.system();
         stats.tangent_evaluations += s;
-        ws.jacobian.resize(size * size, 0.0);
-        for i in 0..s {
-            let tangent = &ws.tangents[i * n * n..(i + 1) * n * n];
-            for j in 0..s {
-                let (ca, ck) = (
-                    h * self.method.a[i][j],
-                    h * h / omega * self.abar[i * s + j],
-                );
-                let cm = if i == j { omega } else { 0.0 };
-                for q in 0..n {
-                    let column = &mut ws.jacobian
-                        [(j * n + q) * size + i * n..(j * n + q) * size + (i + 1) * n];
-                    let (m, c, k) = (
-                        &self.mass[q * n..(q + 1) * n],
-                        &self.damping[q * n..(q + 1) * n],
-                        &tangent[q * n..(q + 1) * n],
-                    );
-                    for p in 0..n {
-                        column[p] = cm * m[p] + ca * c[p] + ck * k[p];
-                    }
-                }
-            }
-        }
-        ws.lu = Some(DenseLu::new(linalg::view(&ws.jacobian, size, size, size)));
         stats.factorisations += 1;
+        let factorised = match &self.stages {
+            Stages::Sparse(sparse) => {
+                sparse.factorise(system, &ws.x, step, &self.coefficients, &mut ws.linear)
+            }
+            Stages::Dense { mass, damping } => {
+                let mut tangents = vec![0.0; s * n * n];
+                for (x, tangent) in ws.x.chunks(n).zip(tangents.chunks_mut(n * n)) {
+                    dense_tangent(system, x, tangent, &mut ws.values);
+                }
+                let (a, abar) = (&self.coefficients.a, &self.coefficients.abar);
+                let jacobian = Mat::<f64>::from_fn(s * n, s * n, |row, col| {
+                    let (i, p, j, q) = (row / n, row % n, col / n, col % n);
+                    let m = if i == j { mass[q * n + p] } else { 0.0 };
+                    m + step * a[i][j] * damping[q * n + p]
+                        + step * step * abar[i][j] * tangents[i * n * n + q * n + p]
+                });
+                let lu = DenseLu::new(jacobian.as_ref());
+                Some((StageLu::Dense(lu), StageTangents::Dense(tangents)))
+            }
+        };
+        let (lu, tangents) = factorised.ok_or_else(|| {
+            IntegrationError::InvalidInput(format!(
+                "the implicit stage system is singular (step {step:.3e} s)"
+            ))
+        })?;
+        ws.lu = Some(lu);
+        ws.tangents = Some(tangents);
+        Ok(())
     }
 
     /// Solves one step's stage equations from `z` at phase `tau` with step `h`; with
@@ -216,9 +263,10 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         for _ in 0..MAX_STAGE_ITERATIONS {
             self.stage_states(x0, v0, h, omega, ws);
             if ws.lu.is_none() {
-                self.factorise(h, omega, ws, stats);
+                self.factorise(h, omega, ws, stats)?;
                 fresh = true;
             }
+            // `−R_i/Ω`: the Jacobian is factorised divided by `Ω`.
             for i in 0..s {
                 let r = &mut ws.residual[i * n..(i + 1) * n];
                 self.system
@@ -234,23 +282,9 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                     *rp -= fp;
                 }
                 let (w, v) = (&ws.w[i * n..(i + 1) * n], &ws.v[i * n..(i + 1) * n]);
-                linalg::gemm(
-                    r,
-                    n,
-                    true,
-                    linalg::view(&self.mass, n, n, n),
-                    linalg::view(w, n, 1, n),
-                    omega,
-                );
-                linalg::gemm(
-                    r,
-                    n,
-                    true,
-                    linalg::view(&self.damping, n, n, n),
-                    linalg::view(v, n, 1, n),
-                    1.0,
-                );
-                r.iter_mut().for_each(|e| *e = -*e);
+                self.mass.apply_add(omega, w, n, 1, r, n);
+                self.system.damping().apply_add(1.0, v, n, 1, r, n);
+                r.iter_mut().for_each(|e| *e /= -omega);
             }
             stats.rhs_evaluations += s;
             ws.lu
@@ -279,7 +313,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             if update <= STAGE_TOLERANCE * size || size == 0.0 || stalled {
                 self.stage_states(x0, v0, h, omega, ws);
                 if exact {
-                    self.factorise(h, omega, ws, stats);
+                    self.factorise(h, omega, ws, stats)?;
                 }
                 return Ok(());
             }
@@ -386,74 +420,77 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         let size = s * n;
         let x0 = &z[..n];
         let (omega_column, amplitude_column) = (n2, n2 + 1);
+        let Workspace {
+            lu,
+            tangents,
+            w,
+            x,
+            force,
+            rhs,
+            displacement,
+            row,
+            moved,
+            product,
+            damped,
+            ..
+        } = ws;
+        let tangents = tangents
+            .as_ref()
+            .expect("the tangents of an exact factorisation at the converged stages");
+        product.resize(n, 0.0);
+        // `C δv0` of every column: the same in every stage's equations.
+        damped.clear();
+        damped.resize(n * cols, 0.0);
+        self.system
+            .damping()
+            .apply_add(1.0, &phi[n..], n2, cols, damped, n);
         for i in 0..s {
-            // `δx0 + (h c_i/Ω) δv0` of every column.
+            // `K_t(X_i)(δx0 + (h c_i/Ω) δv0)` of every column.
             let ratio = h * self.method.c[i] / omega;
             for c in 0..cols {
                 let column = &phi[c * n2..(c + 1) * n2];
                 for p in 0..n {
-                    ws.displacement[c * n + p] = column[p] + ratio * column[n + p];
+                    displacement[p * cols + c] = column[p] + ratio * column[n + p];
                 }
             }
-            let block = &mut ws.rhs[i * n..];
-            let tangent = &ws.tangents[i * n * n..(i + 1) * n * n];
-            linalg::gemm(
-                block,
-                size,
-                false,
-                linalg::view(tangent, n, n, n),
-                linalg::view(&ws.displacement, n, cols, n),
-                1.0,
-            );
-            linalg::gemm(
-                block,
-                size,
-                true,
-                linalg::view(&self.damping, n, n, n),
-                linalg::view(&phi[n..], n, cols, n2),
-                1.0,
-            );
+            tangents.apply_block(i, displacement, cols, row, |r, c, value| {
+                rhs[c * size + i * n + r] = value;
+            });
+            for c in 0..cols {
+                let block = &mut rhs[c * size + i * n..c * size + (i + 1) * n];
+                block
+                    .iter_mut()
+                    .zip(&damped[c * n..(c + 1) * n])
+                    .for_each(|(r, d)| *r += d);
+            }
             // The parameter columns: `M W_i − K_t(X_i)(X_i − x0)/Ω` and `−F(τ_i)`.
-            let (w, x) = (&ws.w[i * n..(i + 1) * n], &ws.x[i * n..(i + 1) * n]);
-            ws.moved.clear();
-            ws.moved.extend((0..n).map(|q| -(x[q] - x0[q]) / omega));
-            let moved = &ws.moved;
-            let target =
-                &mut ws.rhs[omega_column * size + i * n..omega_column * size + (i + 1) * n];
-            linalg::gemm(
-                target,
-                n,
-                true,
-                linalg::view(&self.mass, n, n, n),
-                linalg::view(w, n, 1, n),
-                1.0,
-            );
-            linalg::gemm(
-                target,
-                n,
-                true,
-                linalg::view(tangent, n, n, n),
-                linalg::view(moved, n, 1, n),
-                1.0,
-            );
-            ws.force.fill(0.0);
+            let (w, x) = (&w[i * n..(i + 1) * n], &x[i * n..(i + 1) * n]);
+            moved.clear();
+            moved.extend((0..n).map(|q| -(x[q] - x0[q]) / omega));
+            tangents.apply(i, moved, product);
+            let target = &mut rhs[omega_column * size + i * n..omega_column * size + (i + 1) * n];
+            self.mass.apply_add(1.0, w, n, 1, target, n);
+            target
+                .iter_mut()
+                .zip(product.iter())
+                .for_each(|(t, p)| *t += p);
+            force.fill(0.0);
             self.system
                 .force()
-                .add_at(tau + self.method.c[i] * h, 1.0, &mut ws.force);
+                .add_at(tau + self.method.c[i] * h, 1.0, force);
             let target =
-                &mut ws.rhs[amplitude_column * size + i * n..amplitude_column * size + (i + 1) * n];
-            for (t, f) in target.iter_mut().zip(&ws.force) {
+                &mut rhs[amplitude_column * size + i * n..amplitude_column * size + (i + 1) * n];
+            for (t, f) in target.iter_mut().zip(force.iter()) {
                 *t -= f;
             }
         }
-        ws.rhs.iter_mut().for_each(|e| *e = -*e);
-        ws.lu
-            .as_ref()
+        rhs.iter_mut().for_each(|e| *e /= -omega);
+        lu.as_ref()
             .expect("an exact factorisation at the converged stages")
-            .solve_in_place(&mut ws.rhs, cols);
+            .solve_in_place(rhs, cols);
         for c in 0..cols {
             let d_omega = if c == omega_column { 1.0 } else { 0.0 };
-            let dw = &ws.rhs[c * size..(c + 1) * size];
+            let dw = &rhs[c * size..(c + 1) * size];
             let column = &mut phi[c * n2..(c + 1) * n2];
             for p in 0..n {
                 let (mut dv, mut dx) = (0.0, 0.0);
@@ -471,50 +508,21 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
 
     /// The scaled RMS size of the slow part of `a − b` (module notes): each half filtered
     /// by `(M + K₀/ω_c²)⁻¹M`, in the tolerances' metric.
-    fn slow_difference(&self, a: &[f64], b: &[f64], filter: &DenseLu) -> f64 {
+    fn slow_difference(&self, a: &[f64], b: &[f64], filter: &StageLu) -> f64 {
         let n2 = a.len();
         let n = n2 / 2;
-        let mut d: Vec<f64> = a.iter().zip(b).map(|(a, b)| a - b).collect();
+        let d: Vec<f64> = a.iter().zip(b).map(|(a, b)| a - b).collect();
         let mut md = vec![0.0; n2];
-        linalg::gemm(
-            &mut md,
-            n,
-            false,
-            linalg::view(&self.mass, n, n, n),
-            linalg::view(&d, n, 2, n),
-            1.0,
-        );
+        self.mass.apply_add(1.0, &d, n, 2, &mut md, n);
         filter.solve_in_place(&mut md, 2);
-        d.copy_from_slice(&md);
         let tol = self.tolerances;
         let sum: f64 = (0..n2)
             .map(|i| {
                 let scale = tol.absolute_at(i, n2) + tol.relative * a[i].abs().max(b[i].abs());
-                (d[i] / scale).powi(2)
+                (md[i] / scale).powi(2)
             })
             .sum();
         (sum / n2 as f64).sqrt()
-    }
-
-    /// The low-pass filter `M + K₀/ω_c²` at the forcing frequency `omega`, factorised.
-    fn low_pass(&self, omega: f64) -> DenseLu {
-        let n = self.system.dofs();
-        let mut stiffness = vec![0.0; n * n];
-        let mut values = Vec::new();
-        dense_tangent(
-            self.system.system(),
-            &vec![0.0; n],
-            &mut stiffness,
-            &mut values,
-        );
-        let cutoff = CUTOFF_HARMONICS * omega;
-        let shifted: Vec<f64> = self
-            .mass
-            .iter()
-            .zip(&stiffness)
-            .map(|(m, k)| m + k / (cutoff * cutoff))
-            .collect();
-        DenseLu::new(linalg::view(&shifted, n, n, n))
     }
 }
 
@@ -546,10 +554,26 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
 
     /// Sets the steps a period so that the estimated global error of `z(2π)` is within the
     /// tolerances (module notes): at most four estimates, each from `N` and `N/2` steps.
+    /// An estimate is reused for the points near the one it was made at (see [`REUSE`]).
     fn adapt(&mut self, z0: &[f64], drive: Drive) -> Result<(), IntegrationError> {
+        let size = (z0.iter().map(|v| v * v).sum::<f64>() / z0.len().max(1) as f64).sqrt();
+        if let Some((frequency, estimated_size, served)) = &mut self.estimate {
+            let near = (drive.frequency / *frequency - 1.0).abs() <= REUSE_FREQUENCY
+                && size <= REUSE_SIZE * *estimated_size
+                && *estimated_size <= REUSE_SIZE * size;
+            if near && *served < REUSE {
+                *served += 1;
+                return Ok(());
+            }
+        }
+        self.estimate = Some((drive.frequency, size, 0));
         let period = 2.0 * std::f64::consts::PI;
         let order = self.method.order as i32;
-        let filter = self.low_pass(drive.frequency);
+        let filter = low_pass(
+            self.system.system(),
+            &self.mass,
+            CUTOFF_HARMONICS * drive.frequency,
+        )?;
         for _ in 0..4 {
             let steps = self.steps.max(2 * MIN_STEPS);
             let fine = self.integrate(z0, 0.0, period, steps, drive, false)?;

@@ -121,10 +121,36 @@ pub fn sample(
     count: usize,
 ) -> Result<Vec<Vec<f64>>, IntegrationError> {
     let count = count.max(1);
+    sample_pieces(integrator, z0, drive, count, count)
+}
+
+/// [`sample`] of a half-wave symmetric motion, `z(τ + π) = −z(τ)` (eq. (99b)): the first
+/// half of the period integrated, the second its negative. `count` must be even.
+pub fn sample_half_wave(
+    integrator: &mut dyn ForcedIntegrator,
+    z0: &[f64],
+    drive: Drive,
+    count: usize,
+) -> Result<Vec<Vec<f64>>, IntegrationError> {
+    assert!(count % 2 == 0, "an even sample count");
+    let mut out = sample_pieces(integrator, z0, drive, count, count / 2)?;
+    let mirrored: Vec<Vec<f64>> = out.iter().map(|z| z.iter().map(|v| -v).collect()).collect();
+    out.extend(mirrored);
+    Ok(out)
+}
+
+/// The first `pieces` of the `count` samples of [`sample`].
+fn sample_pieces(
+    integrator: &mut dyn ForcedIntegrator,
+    z0: &[f64],
+    drive: Drive,
+    count: usize,
+    pieces: usize,
+) -> Result<Vec<Vec<f64>>, IntegrationError> {
     let span = 2.0 * std::f64::consts::PI / count as f64;
     let mut z = z0.to_vec();
     let mut out = Vec::with_capacity(count);
-    for k in 0..count {
+    for k in 0..pieces {
         let next = integrator.advance(&z, k as f64 * span, span, drive)?;
         out.push(std::mem::replace(&mut z, next));
     }
