@@ -5,6 +5,7 @@ split pairs followed to their limits, determinism, resumption, a lost worker, ba
 from __future__ import annotations
 
 import csv
+import json
 import os
 import signal
 import subprocess
@@ -16,6 +17,7 @@ import pytest
 import scipy.linalg
 
 import nnm
+from nnm import __main__ as cli_module
 from nnm import sweeps
 
 distributed = pytest.importorskip("distributed")
@@ -219,6 +221,7 @@ def test_bad_sweeps_are_one_line_errors_with_status_2(write_job, tmp_path: Path,
     )  # fmt: skip
     assert run.returncode == 2
     assert message in run.stderr and run.stderr.count("\n") == 1, run.stderr
+    assert not (tmp_path / "o").exists()  # everything checked before anything is written
 
 
 def test_mistuning_is_refused_on_other_models(write_job, tmp_path: Path) -> None:
@@ -247,3 +250,216 @@ def test_a_sample_that_fails_is_a_row_with_its_reason(write_job, tmp_path: Path,
                "--grid", "settings.max_iterations=1,8", "--workers", "1", "--no-figures", "--quiet"]  # fmt: skip
     run = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert run.returncode == 3, run.stderr
+
+
+# ----------------------------------------------------------------------------------------
+# Bad input found before anything runs or is written (issue 29)
+
+
+def closed_port() -> int:
+    """A local port nothing listens on (bound, then released)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def sweep_command(job: Path, out: Path, *arguments: str) -> subprocess.CompletedProcess:
+    command = [sys.executable, "-m", "nnm", "sweep", str(job), "--out", str(out), "--no-figures", *arguments]
+    return subprocess.run(command, capture_output=True, text=True, timeout=120)
+
+
+@pytest.fixture
+def threads_client():
+    """One in-process worker (processes=False): a test's monkeypatches reach it."""
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as cluster:
+        with distributed.Client(cluster) as c:
+            yield c
+
+
+@pytest.mark.parametrize(
+    ("scheduler", "message"),
+    [
+        (None, "no Dask scheduler answered at tcp://127.0.0.1:{port} within 5 s"),  # a closed port
+        ("bogus", "scheduler address `bogus`: expected HOST:PORT; e.g. tcp://host:8786"),
+        ("http://localhost:8787", "unknown protocol `http://`"),
+        ("tcp://localhost:99999", "the port `99999` is not a number from 1 to 65535"),
+        ("tcp://:8786", "expected HOST:PORT"),
+    ],
+)
+def test_an_unreachable_or_bogus_scheduler_is_one_line_before_any_file(write_job, tmp_path: Path, scheduler, message) -> None:
+    """Refused with one line and status 2, `--out` not even created: the address checked as
+    the arguments are, the connection made (with a timeout of SCHEDULER_TIMEOUT) before
+    anything is written."""
+    job = write_job(SMALL_DISK)
+    port = closed_port()
+    scheduler = scheduler or f"tcp://127.0.0.1:{port}"
+    out = tmp_path / "o"
+    run = sweep_command(job, out, "--scheduler", scheduler)
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.startswith("error: ") and run.stderr.count("\n") == 1, run.stderr
+    assert message.format(port=port) in run.stderr
+    assert not out.exists()
+    assert sweeps.SCHEDULER_TIMEOUT <= 5  # "within 10 s", Python's start included
+
+
+@pytest.mark.parametrize(
+    ("arguments", "error", "message"),
+    [
+        ({"workers": 0}, ValueError, "workers must be at least 1 (leave it out for one per core), got 0"),
+        ({"workers": -1}, ValueError, "workers must be at least 1 (leave it out for one per core), got -1"),
+        ({"workers": 1.5}, TypeError, "workers takes an integer, got 1.5"),
+        ({"workers": 2, "scheduler": "tcp://h:8786"}, ValueError, "give at most one of `workers`, `scheduler` and `client`"),
+        ({"seed": -1}, ValueError, "seed must be at least 0, got -1"),
+        ({"seed": 1.5}, TypeError, "seed takes an integer, got 1.5"),
+        ({"samples": -2}, ValueError, "samples must be at least 0, got -2"),
+        ({"mistuning": ["0.1"], "samples": 2}, TypeError, "a mistuning level is a number, got '0.1'"),
+        ({"localization_sectors": 7}, ValueError, "localization_sectors = 7 is more than the model's 6 sectors"),
+        ({"localization_sectors": 5, "grid": {"model.sectors": [8, 4]}}, ValueError,
+         "grid point model.sectors = 4: localization_sectors = 5 is more than the model's 4 sectors"),
+        ({"grid": {"model.sectors": [6, 3]}}, ValueError, "grid point model.sectors = 3: branch `mode-1-2`: unknown mode `1,2`"),
+        ({"grid": {"settings.tolerance": [1e-9, 1e-30]}}, ValueError, "grid point settings.tolerance = 1e-30: "),
+        ({"grid": {"model.cubic": [0.1, 0.1]}}, ValueError, "grid parameter `model.cubic` has a value twice"),
+        ({"samples": 20, "mistuning": [0.01, 0.5], "seed": 0}, ValueError,
+         "mistuning σ = 0.5, replicate 5 of seed 0: "),
+    ],
+)  # fmt: skip
+def test_every_grid_point_seed_and_count_is_checked_before_anything_is_written(
+    write_job, tmp_path: Path, arguments: dict, error: type, message: str
+) -> None:
+    """Not only the first grid point: each is read with the job file's rules and each branch's
+    mode found on it; every replicate's draw at every level (here replicate 5 of 20 has a
+    blade whose stiffness σ = 0.5 would make negative); the counts (`workers = 0` no longer
+    "all cores", -1 no longer a hang) and the seed."""
+    job = write_job(SMALL_DISK)
+    out = tmp_path / "o"
+    with pytest.raises(error) as caught:
+        sweeps.sweep(job, out, progress=False, figures=False, **arguments)
+    assert message in str(caught.value) and "\n" not in str(caught.value)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (["--workers", "0"], "error: --workers must be at least 1"),
+        (["--workers", "-1"], "error: --workers must be at least 1"),
+        (["--seed", "-1", "--samples", "2", "--mistuning", "0.1"], "seed must be at least 0, got -1"),
+        (["--localization-sectors", "7"], "localization_sectors = 7 is more than the model's 6 sectors"),
+        (["--grid", "model.sectors=6,3"], "grid point model.sectors = 3: branch `mode-1-2`: unknown mode `1,2`"),
+    ],
+)
+def test_bad_command_lines_write_nothing(write_job, tmp_path: Path, arguments: list[str], message: str) -> None:
+    job = write_job(SMALL_DISK)
+    out = tmp_path / "o"
+    run = sweep_command(job, out, *arguments)
+    assert run.returncode == 2 and message in run.stderr and run.stderr.count("\n") == 1, run.stderr
+    assert not out.exists()
+
+
+def test_a_sample_without_a_row_makes_the_sweep_exit_3_naming_it(write_job, tmp_path: Path, threads_client, monkeypatch, capsys) -> None:
+    """A sample that raises on its worker has no row (a rerun computes it): the sweep says
+    which, `missing` lists it, and the command line exits 3, as for a failed row."""
+    job = write_job(SMALL_DISK)
+    real = sweeps.run_sample
+
+    def run_sample(job, sample, *args):
+        if sample.parameters == (("model.cubic", 0.2),):
+            raise RuntimeError("a worker's error")
+        return real(job, sample, *args)
+
+    monkeypatch.setattr(sweeps, "run_sample", run_sample)
+    monkeypatch.setattr(sweeps, "_start_client", lambda workers, scheduler: (threads_client, None))
+    code = cli_module.main(["sweep", str(job), "--out", str(tmp_path / "o"), "--grid", "model.cubic=0.1,0.2", "--no-figures"])
+    err = capsys.readouterr().err
+    assert code == cli_module.EXIT_SAMPLES == 3, err
+    assert "nnm sweep: 1 samples have no row (rerun to compute them): mode-1-2_cubic=0.2" in err
+    assert [r["model.cubic"] for r in rows(tmp_path / "o")] == ["0.1"]
+    # In Python: the result says so.
+    monkeypatch.setattr(sweeps, "run_sample", run_sample)
+    result = sweeps.sweep(job, tmp_path / "p", grid={"model.cubic": [0.1, 0.2]}, client=threads_client, progress=False, figures=False)
+    assert result.missing == ["mode-1-2_cubic=0.2"] and "1 missing" in repr(result)
+    # The failed rows are named too.
+    monkeypatch.setattr(sweeps, "run_sample", real)
+    code = cli_module.main(["sweep", str(job), "--out", str(tmp_path / "f"), "--grid", "settings.max_iterations=1,8", "--no-figures", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 3
+    assert err.startswith("nnm sweep: 1 rows of ") and "failed, index 0 (mode-1-2: " in err and err.count("\n") == 1, err
+
+
+def test_a_rerun_refuses_rows_computed_otherwise(write_job, tmp_path: Path, threads_client) -> None:
+    """sweep.json records what defines a row: a rerun after the job file changed, or with
+    another --localization-sectors, is refused naming the change (it used to say "0 to run" and
+    keep the old rows), and nothing is written; the same sweep resumes."""
+    job = write_job(SMALL_DISK)
+    out = tmp_path / "o"
+    run = dict(client=threads_client, progress=False, figures=False)
+    sweeps.sweep(job, out, **run)
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+
+    job.write_text(SMALL_DISK.replace("frequency_shift_max = 0.03", "frequency_shift_max = 0.05"))
+    with pytest.raises(ValueError, match=r"holds rows of a sweep with another job content \(the job file or a file it names changed\): .* use another --out"):
+        sweeps.sweep(job, out, **run)
+    job.write_text(SMALL_DISK)
+    with pytest.raises(ValueError, match=r"another localization_sectors \(the default, now 2\)"):
+        sweeps.sweep(job, out, localization_sectors=2, **run)
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    assert sweeps.sweep(job, out, **run).skipped == 1
+
+    # A sweep.json of an nnm that did not record the job's content: refused, not trusted.
+    record = json.loads((out / "sweep.json").read_text())
+    del record["job_sha256"]
+    (out / "sweep.json").write_text(json.dumps(record))
+    with pytest.raises(ValueError, match=r"another job content .*\(not recorded by the nnm that wrote it\)"):
+        sweeps.sweep(job, out, **run)
+
+
+def test_the_jobs_content_includes_the_files_it_names(tmp_path: Path) -> None:
+    job = tmp_path / "job.toml"
+    job.write_text('[model]\nmass = "M.mtx"\nstiffness = \'K.mtx\'\nname = "not-a-file"\n')
+    (tmp_path / "M.mtx").write_text("1\n")
+    (tmp_path / "K.mtx").write_text("2\n")
+    first = sweeps._job_digest(job)
+    (tmp_path / "K.mtx").write_text("3\n")
+    assert sweeps._job_digest(job) != first
+    (tmp_path / "K.mtx").write_text("2\n")
+    assert sweeps._job_digest(job) == first
+
+
+@pytest.mark.parametrize(
+    ("corrupt", "message"),
+    [
+        (lambda line: line.replace(",0.02,", ",abc,", 1), "line 3: sigma `abc` is not a finite number"),
+        (lambda line: line.replace(",ok,", ",fine,", 1), "line 3: status `fine` is neither `ok` nor `failed`"),
+        (lambda line: line[:40] + "\n", "line 3: 7 fields where the header has 22"),
+    ],
+)
+def test_a_corrupted_row_is_refused_naming_the_file_and_line(write_job, tmp_path: Path, threads_client, corrupt, message) -> None:
+    """A row that cannot be read stops the resume with the file and the line (a last row cut
+    short by an interruption is still dropped and computed again)."""
+    job = write_job(SMALL_DISK)
+    out = tmp_path / "o"
+    run = dict(samples=3, mistuning=[0.02], seed=5, client=threads_client, progress=False, figures=False)
+    sweeps.sweep(job, out, **run)
+    path = out / "sweep.csv"
+    lines = path.read_text().splitlines(keepends=True)
+    lines[2] = corrupt(lines[2])
+    path.write_text("".join(lines))
+    with pytest.raises(ValueError) as caught:
+        sweeps.sweep(job, out, **run)
+    assert f"{path}, {message}" in str(caught.value) and "\n" not in str(caught.value)
+    assert path.read_text() == "".join(lines)  # left as it was
+
+
+def test_the_readme_lists_the_modules_exit_codes() -> None:
+    """The exit statuses are declared once, in nnm.__main__.EXIT_CODES (its docstring and
+    --help print them): the README's table says the same."""
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    table = readme.split("| `python -m nnm sweep` exit status | meaning |\n|---|---|\n", 1)[1].split("\n\n", 1)[0]
+    listed = {}
+    for line in table.splitlines():
+        code, meaning = line.strip("|").split("|", 1)
+        listed[int(code.strip().strip("`"))] = meaning.strip()
+    assert listed == cli_module.EXIT_CODES
+    assert all(f"- {code}: {meaning}" in cli_module.__doc__ for code, meaning in cli_module.EXIT_CODES.items())

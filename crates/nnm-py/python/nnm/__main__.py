@@ -1,8 +1,7 @@
 """``python -m nnm sweep``: a job's branches over mistuned or varied models, on Dask.
 
-Exit status: 0 when every sample's branch reached its limit, 3 when some stopped early (their
-rows say why), 2 for bad input (one line on stderr), 130 when interrupted (the samples
-finished so far are in sweep.csv; rerun the same command to go on).
+Exit status (:data:`EXIT_CODES`, the one list: crates/nnm-py/README.md's table is checked
+against it):
 """
 
 from __future__ import annotations
@@ -10,6 +9,27 @@ from __future__ import annotations
 import argparse
 import sys
 from typing import NoReturn, Sequence
+
+EXIT_OK = 0
+EXIT_ERROR = 2
+EXIT_SAMPLES = 3
+EXIT_INTERRUPTED = 130
+
+#: Every exit status of ``python -m nnm sweep`` and what it means.
+EXIT_CODES = {
+    EXIT_OK: "every sample has a row, and every row's status is `ok`",
+    EXIT_ERROR: "bad input, an unreachable `--scheduler`, a `--out` holding another sweep's rows, a file that cannot be "
+    "read or written: one line on stderr (nothing is written when found before the sweep starts: everything is "
+    "checked first)",
+    EXIT_SAMPLES: "the sweep ran, but some rows have `status = failed` (and the reason) or some samples no row (an error "
+    "on a worker; a rerun computes them): stderr names them",
+    EXIT_INTERRUPTED: "interrupted (Ctrl-C): the finished samples are in `sweep.csv`; rerun the same command to go on",
+}
+
+__doc__ += "".join(f"\n- {code}: {meaning}" for code, meaning in EXIT_CODES.items()) + "\n"
+
+#: Rows or samples named in the summary of an unfinished sweep (then "and N more").
+NAMED = 10
 
 EPILOG = """\
 examples:
@@ -22,7 +42,9 @@ examples:
 The job's branches give the modes and the energy range (their limits); every branch started
 from a mode is swept unless --branch names some. Rerunning into the same --out skips the
 samples already in DIR/sweep.csv.
-"""
+
+exit status:
+""" + "".join(f"  {code:<4} {meaning}\n" for code, meaning in EXIT_CODES.items())
 
 
 def _number(text: str) -> int | float:
@@ -74,9 +96,9 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--mistuning", type=_levels, default=[], metavar="SIGMA[,SIGMA...]", help="relative standard deviation(s) of the blade stiffnesses, k_i = k (1 + σ ξ_i)")
     s.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the mistuning draws (default 0)")
     s.add_argument("--grid", type=_grid, action="append", default=[], metavar="KEY=V1,V2,...", help="vary a job key (model.KEY, settings.KEY, branch.NAME.KEY) over values; repeatable, every combination runs")
-    s.add_argument("--localization-sectors", type=int, metavar="K", help="sectors counted by the localization (default: a tenth of the sectors)")
+    s.add_argument("--localization-sectors", type=int, metavar="K", help="sectors counted by the localization, 1 to the model's sectors (default: a tenth of the sectors)")
     where = s.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, metavar="W", help="processes of the local Dask cluster (default: the cores)")
+    where.add_argument("--workers", type=int, metavar="W", help="processes of the local Dask cluster, at least 1 (default: one per core)")
     where.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://host:8786")
     s.add_argument("--no-figures", action="store_true", help="write no figures")
     s.add_argument("--quiet", action="store_true", help="print errors only")
@@ -89,14 +111,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if args.samples < 0:
         print("error: --samples must be non-negative", file=sys.stderr)
-        return 2
+        return EXIT_ERROR
     if args.workers is not None and args.workers < 1:
         print("error: --workers must be at least 1", file=sys.stderr)
-        return 2
+        return EXIT_ERROR
     grid = dict(args.grid)
     if len(grid) != len(args.grid):
         print("error: a --grid key is given twice", file=sys.stderr)
-        return 2
+        return EXIT_ERROR
     try:
         result = sweep(
             args.job,
@@ -112,18 +134,29 @@ def main(argv: Sequence[str] | None = None) -> int:
             progress=not args.quiet,
             figures=not args.no_figures,
         )
-    except (ValueError, TypeError, FileNotFoundError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
     except ImportError as e:
         print(f"error: {e} (sweeps need dask[distributed]: pip install 'dask[distributed]')", file=sys.stderr)
-        return 2
+        return EXIT_ERROR
+    except (ValueError, TypeError, OSError) as e:  # OSError: a scheduler not answering, a file
+        print(f"error: {e}", file=sys.stderr)
+        return EXIT_ERROR
     except KeyboardInterrupt:
         print(f"nnm sweep: interrupted; the finished samples are in {args.out}/sweep.csv (rerun to go on)", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     if not args.quiet:
         print(f"{result!r}\n  {result.out}/sweep.csv, statistics.csv, samples/{', figures' if not args.no_figures else ''}")
-    return 3 if result.failed else 0
+    if result.failed_rows:
+        named = _named([f"{r['index']} ({r['branch']}: {r['message'] or r['stop']})" for r in result.failed_rows])
+        print(f"nnm sweep: {result.failed} rows of {result.out}/sweep.csv failed, index {named}", file=sys.stderr)
+    if result.missing:
+        named = _named(result.missing)
+        print(f"nnm sweep: {len(result.missing)} samples have no row (rerun to compute them): {named}", file=sys.stderr)
+    return EXIT_SAMPLES if result.failed_rows or result.missing else EXIT_OK
+
+
+def _named(items: list[str]) -> str:
+    shown = ", ".join(items[:NAMED])
+    return shown + (f" and {len(items) - NAMED} more" if len(items) > NAMED else "")
 
 
 if __name__ == "__main__":

@@ -28,10 +28,15 @@ running at that moment: ``OUT/sweep.csv`` (one row per sample), ``OUT/samples/*.
 sample's branch: energy, frequency, stability, localization, regime and peak displacement), and
 at the end ``OUT/statistics.csv`` and the figures ``OUT/localization.png`` and
 ``OUT/frequency.png`` (docs/output.md has every column).
-A rerun into the same ``OUT`` with the same job, branches and seed skips the samples already
-in ``sweep.csv`` (more samples, σ or grid values may be added). A worker lost mid-sample is
-replaced by Dask and its sample rerun elsewhere; samples whose branch fails numerically are
-kept as rows with ``status = "failed"`` and the reason.
+A rerun into the same ``OUT`` skips the samples already in ``sweep.csv`` (more samples, σ or
+grid values may be added); ``sweep.json`` records what defines a row — the job file, its
+content (SHA-256 of it and of the files it names), the seed, the grid's keys,
+``localization_sectors``, :data:`MOTION_SAMPLES` — and a rerun whose differ is refused, naming
+what changed, before anything is written (the rows would not be this sweep's); a row of
+``sweep.csv`` that cannot be read is refused with the file and its line. A worker lost
+mid-sample is replaced by Dask and its sample rerun elsewhere; samples whose branch fails
+numerically are kept as rows with ``status = "failed"`` and the reason; a sample that raises
+on its worker has no row (``SweepResult.missing``; a rerun computes it).
 
 Command line: ``python -m nnm sweep JOB.toml --out DIR ...`` (``python -m nnm sweep --help``).
 """
@@ -39,10 +44,12 @@ Command line: ``python -m nnm sweep JOB.toml --out DIR ...`` (``python -m nnm sw
 from __future__ import annotations
 
 import csv
+import hashlib
 import itertools
 import json
 import math
 import os
+import re
 import sys
 import time
 from dataclasses import dataclass
@@ -204,9 +211,8 @@ def run_sample(
     started = time.perf_counter()
     overrides = dict(sample.parameters)
     tuned = Model.from_job(job, overrides)
-    mode_text, pattern = _branch_start(tuned, sample.branch)
     tuned_modes = modes(tuned)
-    tuned_index = int(mode_text) if mode_text.isdigit() else tuned_modes.index(mode_text, pattern or "cos")
+    tuned_index = _tuned_index(tuned, sample.branch, tuned_modes)
     cyclic = tuned.cyclic
     model, mode, mac = tuned, None, 1.0
     if sample.sigma > 0:
@@ -283,28 +289,78 @@ def _format(value: Any) -> str:
     return str(value)
 
 
-def _read_rows(path: Path, columns: list[str]) -> list[dict[str, str]]:
-    """The complete rows of an existing ``sweep.csv`` (a row cut short by an interruption is
-    dropped, to be computed again)."""
+def _read_rows(path: Path, columns: list[str], grid_keys: list[str]) -> list[dict[str, str]]:
+    """The complete rows of an existing ``sweep.csv``, each checked (a last row cut short by
+    an interruption is dropped, to be computed again); a row that cannot be read is refused
+    with the file and its line."""
     if not path.exists():
         return []
-    with path.open(newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader, None)
-        if header is None:
-            return []
-        if header != columns:
-            raise ValueError(f"{path} has other columns than this sweep's (another grid?): use another --out")
-        return [dict(zip(header, r)) for r in reader if len(r) == len(header)]
+    try:
+        with path.open(newline="") as f:
+            reader = csv.reader(f)
+            header = next(reader, None)
+            if header is None:
+                return []
+            if header != columns:
+                raise ValueError(f"{path} has other columns than this sweep's (another grid?): use another --out")
+            records = [(reader.line_num, r) for r in reader if r]
+    except (csv.Error, UnicodeDecodeError) as e:
+        raise ValueError(f"{path}: not a sweep's CSV file ({e}): repair it or use another --out") from None
+    rows: list[dict[str, str]] = []
+    lines: dict[tuple, int] = {}
+    for k, (line, record) in enumerate(records):
+        where = f"{path}, line {line}"
+        if len(record) != len(columns):
+            if k == len(records) - 1 and len(record) < len(columns):
+                continue  # the last row, cut short as the sweep stopped
+            raise ValueError(f"{where}: {len(record)} fields where the header has {len(columns)}: repair or delete the row to go on")
+        row = dict(zip(columns, record))
+        try:
+            key = _row_key(row, grid_keys)
+            _check_row(row)
+        except ValueError as e:
+            raise ValueError(f"{where}: {e}: repair or delete the row to go on") from None
+        if key in lines:
+            raise ValueError(f"{where}: the same sample as line {lines[key]}: delete one of the two to go on")
+        lines[key] = line
+        rows.append(row)
+    return rows
+
+
+#: Columns of ``sweep.csv`` that hold numbers (empty where a branch has no point).
+_NUMBER_COLUMNS = ["mode", "mac", "linear_frequency", "points", "energy", "frequency", "frequency_shift",
+                   "localization_linear", "localization", "localization_max", "localization_energy", "events"]  # fmt: skip
+
+
+def _check_row(row: dict[str, str]) -> None:
+    if row["status"] not in ("ok", "failed"):
+        raise ValueError(f"status `{row['status']}` is neither `ok` nor `failed`")
+    for column in _NUMBER_COLUMNS:
+        text = row[column]
+        if text == "" and row["status"] == "failed":
+            continue
+        try:
+            float(text)
+        except ValueError:
+            raise ValueError(f"{column} `{text}` is not a number") from None
 
 
 def _row_key(row: dict[str, str], grid_keys: list[str]) -> tuple:
-    return (
-        row["branch"],
-        tuple((k, float(row[k])) for k in grid_keys),
-        float(row["sigma"]),
-        int(row["replicate"]),
-    )
+    """What identifies a row's sample (:attr:`Sample.key`); a ``ValueError`` naming the column
+    that cannot be read."""
+
+    def read(column: str, kind: Callable[[str], Any]) -> Any:
+        try:
+            value = kind(row[column])
+        except ValueError:
+            value = None
+        if value is None or (kind is float and not math.isfinite(value)) or (kind is int and value < 0):
+            raise ValueError(f"{column} `{row[column]}` is not {'a finite number' if kind is float else 'a non-negative integer'}")
+        return value
+
+    if not row["branch"]:
+        raise ValueError("the branch is empty")
+    return (row["branch"], tuple((k, read(k, float)) for k in grid_keys), read("sigma", float), read("replicate", int))
 
 
 def _write_curve(path: Path, curve: dict[str, np.ndarray]) -> None:
@@ -319,12 +375,16 @@ def _write_curve(path: Path, curve: dict[str, np.ndarray]) -> None:
 
 class SweepResult:
     """What :func:`sweep` did: ``rows`` (every sample's row of ``sweep.csv``, as strings,
-    finished earlier ones included), the counts ``computed``, ``skipped`` and ``failed``, and
-    the output folder ``out``."""
+    finished earlier ones included), the counts ``computed``, ``skipped`` and ``failed``,
+    ``failed_rows`` (the rows whose branch failed), ``missing`` (the names of the samples of
+    this sweep that have no row: they raised, or their worker was lost too often; a rerun
+    computes them), and the output folder ``out``."""
 
-    def __init__(self, out: Path, rows: list[dict[str, str]], computed: int, skipped: int) -> None:
+    def __init__(self, out: Path, rows: list[dict[str, str]], computed: int, skipped: int, missing: Sequence[str] = ()) -> None:
         self.out, self.rows, self.computed, self.skipped = out, rows, computed, skipped
-        self.failed = sum(r["status"] != "ok" for r in rows)
+        self.failed_rows = [r for r in rows if r["status"] != "ok"]
+        self.failed = len(self.failed_rows)
+        self.missing = list(missing)
 
     def to_pandas(self) -> Any:
         """``sweep.csv`` as a DataFrame."""
@@ -335,7 +395,8 @@ class SweepResult:
     def __repr__(self) -> str:
         return (
             f"<nnm sweep in {self.out}: {len(self.rows)} samples "
-            f"({self.computed} computed, {self.skipped} already done, {self.failed} failed)>"
+            f"({self.computed} computed, {self.skipped} already done, {self.failed} failed"
+            f"{f', {len(self.missing)} missing' if self.missing else ''})>"
         )
 
 
@@ -359,48 +420,62 @@ def sweep(
     """Runs a sweep of ``job``'s branches (all of those started from a mode, or ``branches``)
     over ``grid`` and ``mistuning`` (see the module's doc), writing into ``out`` as samples
     complete, on Dask: a ``client`` given, a scheduler at ``scheduler`` (``"tcp://host:8786"``),
-    or a ``LocalCluster`` of ``workers`` processes (default: this machine's cores), one thread
-    each. ``on_row(row)`` is called on this process as each sample's row is written.
+    or a ``LocalCluster`` of ``workers`` processes (default, ``None``: one per core of this
+    machine; at least 1), one thread each; at most one of the three. ``on_row(row)`` is called
+    on this process as each sample's row is written.
 
-    Bad input (the job, a grid key, a level) raises ``ValueError`` before anything runs."""
+    Everything is checked before anything runs or is written, raising ``ValueError``
+    (``TypeError`` for a value of the wrong type): the job with every grid point, each
+    branch's mode, every replicate's mistuned blades, the seed, the counts, the scheduler's
+    address, and what ``out`` already holds (see the module's doc on reruns); a scheduler that
+    cannot be reached within :data:`SCHEDULER_TIMEOUT` seconds raises ``ConnectionError``, with
+    nothing written. The result's ``failed`` and ``missing`` say which samples have no
+    usable row."""
     job_path = Path(job).resolve()
     out = Path(out)
-    grid = {k: [_numeric(k, v) for v in vs] for k, vs in (grid or {}).items()}
-    mistuning = [float(s) for s in mistuning]
-    if localization_sectors is not None and localization_sectors < 1:
-        raise ValueError(f"localization_sectors must be at least 1, got {localization_sectors}")
+    grid = _checked_grid(grid)
+    mistuning = [_real("a mistuning level", s) for s in mistuning]
+    samples = _integer("samples", samples, 0)
+    seed = _integer("seed", seed, 0)
+    if localization_sectors is not None:
+        localization_sectors = _integer("localization_sectors", localization_sectors, 1)
+    if workers is not None:
+        workers = _integer("workers", workers, 1, "leave it out for one per core")
+    if sum(x is not None for x in (workers, scheduler, client)) > 1:
+        raise ValueError("give at most one of `workers`, `scheduler` and `client`")
+    if scheduler is not None:
+        _check_address(scheduler)
 
-    # Validate on this process, before any worker starts: the job with one grid point's
-    # overrides (every key then checked by the job file's rules), the branches, the levels.
-    first = {k: vs[0] for k, vs in grid.items()}
-    tuned = Model.from_job(job_path, first)
+    # Validate on this process, before any worker starts: the job with every grid point's
+    # overrides (every key then checked by the job file's rules), each branch's start, the
+    # levels, every replicate's draw.
+    plan([], samples=samples, mistuning=mistuning, grid=grid)  # the levels and samples
+    points = [dict(p) for p in itertools.product(*([(k, v) for v in vs] for k, vs in grid.items()))]
+    tuned = _model_at(job_path, points[0], grid)
     names = list(branches) if branches else [b for b in tuned.branches if tuned._native.branch_mode(b)]
     if not names:
         raise ValueError(f"{job_path}: the job has no branch started from a mode to sweep")
-    for name in names:
-        _branch_start(tuned, name)
-    if any(s > 0 for s in mistuning) and (tuned.family != "bladed-disk" or tuned.cyclic is None):
-        raise ValueError("mistuning applies to a bladed disk (`family = \"bladed-disk\"`); vary other models with a grid")
     for key in grid:
         if key.startswith("model.") and key.split(".", 1)[1] == "blade_stiffness_mistuning":
             raise ValueError("vary the mistuning with `mistuning` (levels) and `samples`, not as a grid key")
+    _check_points(job_path, points, grid, names, mistuning, samples, seed, localization_sectors)
     todo = plan(names, samples=samples, mistuning=mistuning, grid=grid)
 
-    out.mkdir(parents=True, exist_ok=True)
-    (out / SAMPLES_DIR).mkdir(exist_ok=True)
-    identity = {"job": str(job_path), "seed": seed, "grid_keys": list(grid)}
-    config_path = out / SWEEP_JSON
-    if config_path.exists():
-        earlier = json.loads(config_path.read_text())
-        if {k: earlier.get(k) for k in identity} != identity:
-            raise ValueError(
-                f"{out} holds a sweep of another job, seed or grid ({earlier.get('job')}, seed {earlier.get('seed')}): use another --out"
-            )
-    config_path.write_text(json.dumps({**identity, "branches": names, "samples": samples, "mistuning": mistuning, "grid": grid}, indent=2) + "\n")
-
+    # What `out` holds, read and checked before anything is written.
+    identity = {
+        "job": str(job_path),
+        "job_sha256": _job_digest(job_path),
+        "seed": seed,
+        "grid_keys": list(grid),
+        "localization_sectors": localization_sectors,
+        "motion_samples": MOTION_SAMPLES,
+    }
     columns = _columns(grid)
     csv_path = out / SWEEP_CSV
-    rows = _read_rows(csv_path, columns)
+    config_path = out / SWEEP_JSON
+    rows = _read_rows(csv_path, columns, list(grid))
+    if rows:
+        _check_identity(config_path, identity)
     # A row's index is its sample's place in this plan (an earlier run with fewer samples or
     # levels numbered them otherwise); rows of samples this plan leaves out are kept, after.
     place = {s.key: s.index for s in todo}
@@ -410,24 +485,31 @@ def sweep(
     rows.sort(key=lambda r: int(r["index"]))
     done = {_row_key(r, list(grid)) for r in rows}
     pending = [s for s in todo if s.key not in done]
-    # Rewrite without any row cut short, then append as samples complete.
-    tmp = csv_path.with_suffix(".tmp")
-    with tmp.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(columns)
-        for r in rows:
-            w.writerow([r[c] for c in columns])
-    tmp.replace(csv_path)
 
     say = (lambda text: print(text, file=sys.stderr, flush=True)) if progress else (lambda text: None)
-    say(f"nnm sweep: {len(todo)} samples, {len(todo) - len(pending)} already in {csv_path}, {len(pending)} to run")
     computed = 0
-    if pending:
-        own_client = None
-        if client is None:
-            client, own_client = _start_client(workers, scheduler)
-            say(f"nnm sweep: on {_describe(client)}")
-        try:
+    own_client = None
+    if pending and client is None:
+        # Before any file is written: an unreachable scheduler leaves `out` as it was.
+        client, own_client = _start_client(workers, scheduler)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / SAMPLES_DIR).mkdir(exist_ok=True)
+        record = {**identity, "nnm": _version(), "branches": names, "samples": samples, "mistuning": mistuning, "grid": grid}
+        config_path.write_text(json.dumps(record, indent=2) + "\n")
+        # Rewrite without any row cut short, then append as samples complete.
+        tmp = csv_path.with_suffix(".tmp")
+        with tmp.open("w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(columns)
+            for r in rows:
+                w.writerow([r[c] for c in columns])
+        tmp.replace(csv_path)
+
+        say(f"nnm sweep: {len(todo)} samples, {len(todo) - len(pending)} already in {csv_path}, {len(pending)} to run")
+        if pending:
+            if own_client is not None:
+                say(f"nnm sweep: on {_describe(client)}")
             with csv_path.open("a", newline="") as f:
                 writer = csv.writer(f)
                 for result in _results(client, str(job_path), pending, seed, localization_sectors, say):
@@ -440,25 +522,61 @@ def sweep(
                     say(_progress_line(row, computed, len(pending)))
                     if on_row is not None:
                         on_row(row)
-        finally:
-            if own_client is not None:
-                cluster = own_client.cluster
-                own_client.close()
-                if cluster is not None:
-                    cluster.close()
+    finally:
+        if own_client is not None:
+            cluster = own_client.cluster
+            own_client.close()
+            if cluster is not None:
+                cluster.close()
     rows.sort(key=lambda r: int(r["index"]))
-    result = SweepResult(out, rows, computed, len(todo) - len(pending))
+    have = {_row_key(r, list(grid)) for r in rows}
+    missing = [s.name for s in todo if s.key not in have]
+    result = SweepResult(out, rows, computed, len(todo) - len(pending), missing)
     _write_statistics(out / STATISTICS_CSV, rows, list(grid))
     if figures:
         _write_figures(out, rows, todo, list(grid))
     return result
 
 
+#: Seconds to wait for a ``scheduler`` to answer before the sweep gives up (nothing written).
+SCHEDULER_TIMEOUT = 5
+
+#: The protocols a Dask scheduler's address may name (``tcp://`` when none is written).
+SCHEDULER_PROTOCOLS = ("tcp", "tls", "ws", "wss")
+
+
+def _check_address(address: Any) -> None:
+    """A scheduler address Dask can connect to, ``[PROTOCOL://]HOST:PORT``, refused at once
+    when it cannot be one (whether the host answers is found when connecting)."""
+    if not isinstance(address, str):
+        raise TypeError(f"scheduler takes an address such as tcp://host:8786, got {address!r}")
+    protocol, sep, location = address.strip().rpartition("://")
+    protocol = protocol if sep else "tcp"
+    why = ""
+    if protocol not in SCHEDULER_PROTOCOLS:
+        why = f"unknown protocol `{protocol}://` (Dask's are {', '.join(p + '://' for p in SCHEDULER_PROTOCOLS)})"
+    else:
+        host, colon, port = location.rpartition(":")
+        if not colon or not host.strip("[]"):
+            why = "expected HOST:PORT"
+        elif not (port.isdigit() and 1 <= int(port) <= 65535):
+            why = f"the port `{port}` is not a number from 1 to 65535"
+        elif ":" in host and not (host.startswith("[") and host.endswith("]")):
+            why = "expected HOST:PORT (an IPv6 host in brackets, [::1]:8786)"
+    if why:
+        raise ValueError(f"scheduler address `{address}`: {why}; e.g. tcp://host:8786")
+
+
 def _start_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
     from dask.distributed import Client, LocalCluster
 
     if scheduler is not None:
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler.strip(), timeout=SCHEDULER_TIMEOUT)
+        except OSError as e:  # Dask's timeout, a refused connection, an unknown host
+            raise ConnectionError(
+                f"no Dask scheduler answered at {scheduler} within {SCHEDULER_TIMEOUT} s ({e}); is it running? Nothing was written"
+            ) from None
         return client, client
     cluster = LocalCluster(
         n_workers=workers or os.cpu_count() or 1,
@@ -468,6 +586,188 @@ def _start_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]
     )
     client = Client(cluster)
     return client, client
+
+
+def _integer(name: str, value: Any, least: int, hint: str = "") -> int:
+    """A count or seed: an integer (not a bool, not a float) of at least ``least``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} takes an integer, got {value!r}")
+    if value < least:
+        raise ValueError(f"{name} must be at least {least}{f' ({hint})' if hint else ''}, got {value}")
+    return int(value)
+
+
+def _real(what: str, value: Any) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{what} is a number, got {value!r}")
+    return float(value)
+
+
+def _checked_grid(grid: Any) -> dict[str, list[int | float]]:
+    if grid is None:
+        return {}
+    if not isinstance(grid, dict):
+        raise TypeError(f"grid takes a dict of dotted keys and lists of values, got {type(grid).__name__}")
+    checked = {}
+    for key, values in grid.items():
+        if not isinstance(key, str):
+            raise TypeError(f"a grid key is a dotted key such as `model.cubic`, got {key!r}")
+        if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
+            raise TypeError(f"grid parameter `{key}` takes a list of values, got {values!r}")
+        checked[key] = [_numeric(key, v) for v in values]
+        if not checked[key]:
+            raise ValueError(f"grid parameter `{key}` has no values")
+        if len(set(checked[key])) != len(checked[key]):
+            raise ValueError(f"grid parameter `{key}` has a value twice: {checked[key]}")
+    return checked
+
+
+def _point_text(point: dict[str, Any]) -> str:
+    return ", ".join(f"{k} = {v}" for k, v in point.items())
+
+
+def _model_at(job: Path, point: dict[str, Any], grid: dict[str, Any]) -> Model:
+    """The job's model with a grid point's values, its errors naming the point when the grid
+    has more than one."""
+    try:
+        return Model.from_job(job, point)
+    except (ValueError, TypeError) as e:
+        if not any(len(vs) > 1 for vs in grid.values()):
+            raise
+        raise type(e)(f"grid point {_point_text(point)}: {e}") from None
+
+
+def _tuned_index(tuned: Model, name: str, tuned_modes: "Any") -> int:
+    """The tuned mode a branch starts from, as an index of ``tuned_modes``."""
+    mode_text, pattern = _branch_start(tuned, name)
+    if mode_text.isdigit():
+        index = int(mode_text)
+        if index >= len(tuned_modes):
+            raise ValueError(f"branch `{name}`: mode {index} is out of range (the model has {len(tuned_modes)} modes)")
+        return index
+    # A travelling wave is made of the pair's two standing waves: its tuned mode is the cos one.
+    try:
+        return tuned_modes.index(mode_text, pattern if pattern in ("cos", "sin") else "cos")
+    except ValueError as e:
+        raise ValueError(f"branch `{name}`: {e}") from None
+
+
+def _check_points(
+    job: Path,
+    points: list[dict[str, Any]],
+    grid: dict[str, Any],
+    names: list[str],
+    mistuning: list[float],
+    samples: int,
+    seed: int,
+    top: int | None,
+) -> None:
+    """What :func:`run_sample` does before it computes, for every grid point: the job read
+    with the point's values, each branch's mode found (the modes computed once per distinct
+    set of ``model.`` values), ``top`` at most the sectors, and every replicate's mistuned
+    blades accepted by the job file's rule (checked on each level's draw with the blade
+    furthest below its tuned stiffness)."""
+    levels = sorted({s for s in mistuning if s > 0})
+    modes_of: dict[tuple, Any] = {}
+    for point in points:
+        tuned = _model_at(job, point, grid)
+        where = f"grid point {_point_text(point)}: " if any(len(vs) > 1 for vs in grid.values()) else ""
+        model_key = tuple((k, v) for k, v in point.items() if k.startswith("model."))
+        if model_key not in modes_of:
+            modes_of[model_key] = modes(tuned)
+        for name in names:
+            try:
+                _tuned_index(tuned, name, modes_of[model_key])
+            except ValueError as e:
+                raise ValueError(f"{where}{e}") from None
+        cyclic = tuned.cyclic
+        if top is not None:
+            if cyclic is None:
+                raise ValueError(f"{where}localization_sectors applies to a cyclic model (a bladed disk), and this one is not")
+            if top > cyclic[0]:
+                raise ValueError(f"{where}localization_sectors = {top} is more than the model's {cyclic[0]} sectors")
+        if not levels:
+            continue
+        if tuned.family != "bladed-disk" or cyclic is None:
+            raise ValueError("mistuning applies to a bladed disk (`family = \"bladed-disk\"`); vary other models with a grid")
+        draws = np.array([mistuning_draw(seed, r, cyclic[0]) for r in range(samples)])
+        lowest = int(np.argmin(draws.min(axis=1)))
+        for sigma in levels:
+            try:
+                Model.from_job(job, {**point, "model.blade_stiffness_mistuning": (sigma * draws[lowest]).tolist()})
+            except (ValueError, TypeError) as e:
+                raise ValueError(f"{where}mistuning σ = {sigma:g}, replicate {lowest} of seed {seed}: {e}") from None
+
+
+def _job_digest(job: Path) -> str:
+    """SHA-256 of the job file and of every file it names (matrices, tensors: any quoted
+    string that is a file beside it), so that a changed input is seen on a rerun."""
+    try:
+        text = job.read_bytes()
+    except OSError:
+        return ""  # Model.from_job has already said why
+    digest = hashlib.sha256(text)
+    named = set()
+    for quoted in re.findall(rb'"([^"\\\n]+)"|\'([^\'\n]+)\'', text):
+        name = (quoted[0] or quoted[1]).decode("utf-8", "replace")
+        path = job.parent / name
+        try:
+            if path.is_file() and path.resolve() != job:
+                named.add(name)
+        except OSError:  # a name too long for the file system, say
+            continue
+    for name in sorted(named):
+        digest.update(b"\0" + name.encode() + b"\0")
+        digest.update((job.parent / name).read_bytes())
+    return digest.hexdigest()
+
+
+#: What ``sweep.json`` records of the rows it describes, with how a change is named.
+_IDENTITY = {
+    "job": "job file",
+    "job_sha256": "job content (the job file or a file it names changed)",
+    "seed": "seed",
+    "grid_keys": "grid keys",
+    "localization_sectors": "localization_sectors",
+    "motion_samples": "motion samples per period (another nnm)",
+}
+
+
+def _check_identity(path: Path, identity: dict[str, Any]) -> None:
+    """That the rows already in ``path``'s folder were computed as this sweep would compute
+    them; else a one-line refusal naming what changed."""
+    try:
+        earlier = json.loads(path.read_text())
+        if not isinstance(earlier, dict):
+            raise ValueError("not a JSON object")
+    except FileNotFoundError:
+        raise ValueError(f"{path.parent} holds {SWEEP_CSV} without {SWEEP_JSON}, which says how its rows were computed: use another --out") from None
+    except ValueError as e:
+        raise ValueError(f"{path}: not a sweep's record ({e}): use another --out") from None
+    changed = []
+    for key, what in _IDENTITY.items():
+        if key not in earlier:
+            changed.append(f"{what} (not recorded by the nnm that wrote it)")
+        elif earlier[key] != identity[key]:
+            if key == "job_sha256":
+                changed.append(what)
+            else:
+                changed.append(f"{what} ({_shown(earlier[key])}, now {_shown(identity[key])})")
+    if changed:
+        raise ValueError(
+            f"{path.parent} holds rows of a sweep with another {'; another '.join(changed)}: "
+            "they would not be this sweep's; use another --out"
+        )
+
+
+def _shown(value: Any) -> str:
+    return "the default" if value is None else str(value)
+
+
+def _version() -> str:
+    from ._nnm import __version__
+
+    return __version__
 
 
 def _describe(client: Any) -> str:
