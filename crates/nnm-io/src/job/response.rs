@@ -556,8 +556,19 @@ fn check_settings(settings: &ResponseSettings) -> Result<(), String> {
             settings.samples
         ));
     }
+    // Every point stores that many states: 10^12 aborted the process on the allocation.
+    if settings.samples > MAX_SAMPLES {
+        return Err(format!(
+            "samples must be at most {MAX_SAMPLES} (each peak is refined between samples), got {}",
+            settings.samples
+        ));
+    }
     Ok(())
 }
+
+/// The most samples of a period a response takes: each point keeps them all (`2n` values
+/// each), and the peaks are refined between samples, so more only costs memory and time.
+pub const MAX_SAMPLES: usize = 100_000;
 
 /// The model's message without the "invalid model parameter: " its display starts with (the
 /// caller says where the value was given).

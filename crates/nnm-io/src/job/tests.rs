@@ -1318,6 +1318,13 @@ fn response_settings_are_checked_and_keep_the_response_defaults() {
     );
     let e = response_settings(table("samples = 4")).unwrap_err();
     assert!(e.contains("samples must be at least 8"), "{e}");
+    // Refused before anything is allocated for them (issue 29: 10^12 aborted the process).
+    let e = response_settings(table("samples = 1000000000000")).unwrap_err();
+    assert_eq!(
+        e,
+        "samples must be at most 100000 (each peak is refined between samples), got 1000000000000"
+    );
+    assert!(response_settings(table("samples = 100000")).is_ok());
     let s = response_settings(table("max_points = 7\ntolerance = 1e-10")).unwrap();
     assert_eq!(s.max_points, 7);
     assert_eq!(s.continuation.tolerance, 1e-10);
