@@ -137,3 +137,15 @@ def test_response_settings_work_or_are_refused(data) -> None:
         nnm.frequency_response(model, nnm.Force(0, 0.1), (1.2, 1.3), raise_on_failure=False, **kwargs)
     except (ValueError, TypeError):
         pass
+
+
+def test_integers_beyond_the_doubles_are_a_value_error() -> None:
+    """What the properties found: an int too large for a float (10**400) raised OverflowError
+    from ``float()`` (a force's amplitude, a damping ratio)."""
+    import pytest
+
+    with pytest.raises(ValueError, match="^amplitude must be a finite real number, got an integer beyond the float range$"):
+        nnm.Force(0, 10**400)
+    for damping in ({"modal": [10**400]}, {"rayleigh": [10**400, 0.0]}):
+        with pytest.raises(ValueError, match="^damping coefficients must be finite real numbers"):
+            nnm.duffing(damping=damping)

@@ -35,6 +35,8 @@ def real(name: str, value: Any) -> float:
         return float(value)
     except (TypeError, ValueError):  # an array of several values
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}") from None
+    except OverflowError:  # an int beyond the doubles (10**400): not its 400 digits
+        raise ValueError(f"{name} must be a finite real number, got an integer beyond the float range") from None
 
 
 def index(name: str, value: Any, count: int, message: str) -> int:

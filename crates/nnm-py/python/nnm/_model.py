@@ -203,11 +203,14 @@ def _damping_form(damping: Any) -> Any:
     if isinstance(damping, dict):
         if set(damping) == {"matrix"}:
             return _matrix("damping", damping["matrix"])
-        return {
-            k: os.fspath(v) if isinstance(v, os.PathLike) else
-            [float(x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) else v
-            for k, v in damping.items()
-        }
+        try:
+            return {
+                k: os.fspath(v) if isinstance(v, os.PathLike) else
+                [float(x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) else v
+                for k, v in damping.items()
+            }
+        except OverflowError:  # an int beyond the doubles (10**400)
+            raise ValueError("damping coefficients must be finite real numbers, got an integer beyond the float range") from None
     return _matrix("damping", damping)
 
 
