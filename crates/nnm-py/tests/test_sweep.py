@@ -463,3 +463,105 @@ def test_the_readme_lists_the_modules_exit_codes() -> None:
         listed[int(code.strip().strip("`"))] = meaning.strip()
     assert listed == cli_module.EXIT_CODES
     assert all(f"- {code}: {meaning}" in cli_module.__doc__ for code, meaning in cli_module.EXIT_CODES.items())
+
+
+# ----------------------------------------------------------------------------------------
+# Signals (issue 29): SIGTERM stops a sweep as the first Ctrl-C does; a second signal quits
+
+
+def wait_for(condition, what: str, process: subprocess.Popen, limit: float = 120.0) -> None:
+    """Polls `condition` until it holds (the limit only fails a test that would hang)."""
+    import time
+
+    deadline = time.monotonic() + limit
+    while not condition():
+        if process.poll() is not None:
+            pytest.fail(f"the process ended ({process.returncode}) before {what}")
+        if time.monotonic() > deadline:
+            process.kill()
+            pytest.fail(f"no {what} within {limit} s")
+        time.sleep(0.05)
+
+
+#: A branch of two points, and the same branch stepped by 1e-5 of its amplitude over 100,000
+#: points (minutes): the sweep is still computing the second when the first's row is written.
+SLOW_DISK = SMALL_DISK.replace('mode = "1,2"', 'mode = "1,2"\nmax_step = 1e-5\nmin_step = 1e-7\nenergy_max = 1e9')
+
+
+def test_sigterm_stops_a_sweep_keeping_its_rows_as_ctrl_c_does(write_job, tmp_path: Path) -> None:
+    """SIGTERM (`kill`, `timeout`, a batch scheduler) mid-sweep: the finished row stays in
+    sweep.csv, one line says where, the exit code is 143 (as `nnm run`'s), and a rerun of the
+    finished sample finds it done."""
+    job = write_job(SLOW_DISK)
+    out = tmp_path / "o"
+    command = [sys.executable, "-m", "nnm", "sweep", str(job), "--out", str(out), "--workers", "2",
+               "--grid", "branch.mode-1-2.max_points=2,100000", "--no-figures", "--quiet"]  # fmt: skip
+    with (tmp_path / "stderr").open("w+") as stderr:
+        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=stderr, text=True)
+        try:
+            wait_for(lambda: (out / "sweep.csv").exists() and len(rows(out)) >= 1, "first row", process)
+            process.send_signal(signal.SIGTERM)
+            code = process.wait(timeout=120)
+            assert code == 143 == cli_module.EXIT_TERMINATED
+        finally:
+            process.kill()
+        stderr.seek(0)
+        lines = stderr.read().splitlines()
+    told = f"nnm sweep: terminated (SIGTERM); the finished samples are in {out}/sweep.csv (rerun to go on)"
+    assert lines.count(told) == 1, lines
+    assert not any("Traceback" in line or "distributed.nanny" in line for line in lines), lines
+    table = rows(out)
+    assert [(r["branch.mode-1-2.max_points"], r["status"], r["points"]) for r in table] == [("2", "ok", "2")]
+    rerun = sweep_command(job, out, "--grid", "branch.mode-1-2.max_points=2", "--workers", "1")
+    assert rerun.returncode == 0, rerun.stderr
+    assert "1 samples, 1 already in" in rerun.stderr and "0 to run" in rerun.stderr
+
+
+STOPPING_SCRIPT = """
+import sys, time
+from pathlib import Path
+from nnm.__main__ import Stopped, _stop_on_signals
+
+with _stop_on_signals(Path(sys.argv[1])):
+    try:
+        print("running", flush=True)
+        while True:
+            time.sleep(1)
+    except Stopped as stopped:
+        print(f"stopping {stopped.exit_code}", flush=True)
+        while True:  # a cleanup that never ends: only a second signal ends the process
+            time.sleep(1)
+"""
+
+
+@pytest.mark.parametrize(
+    ("first", "line"),
+    [
+        (signal.SIGTERM, "nnm sweep: terminated (SIGTERM); the finished samples are in {out}/sweep.csv (rerun to go on)"),
+        (signal.SIGINT, "nnm sweep: interrupted; the finished samples are in {out}/sweep.csv (rerun to go on)"),
+    ],
+)
+@pytest.mark.parametrize("second", [signal.SIGTERM, signal.SIGINT])
+def test_the_first_signal_stops_the_sweep_and_a_second_quits_at_once(tmp_path: Path, first, line, second) -> None:
+    """The first Ctrl-C or SIGTERM says at once where the finished samples are and stops the
+    sweep (its exit code 128 + the signal's number); a second, during the cleanup, ends the
+    process at once, by that signal."""
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "sweep.csv").write_text("index\n")
+    process = subprocess.Popen(
+        [sys.executable, "-c", STOPPING_SCRIPT, str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert process.stdout.readline() == "running\n"
+        process.send_signal(first)
+        assert process.stdout.readline() == f"stopping {128 + first}\n"
+        process.send_signal(second)
+        assert process.wait(timeout=60) == -second
+        assert process.stderr.read() == line.format(out=out) + "\n"
+    finally:
+        process.kill()
+
+
+def test_the_line_says_when_no_sample_had_finished(tmp_path: Path) -> None:
+    assert cli_module._stopped_line(signal.SIGTERM, tmp_path / "o") == "nnm sweep: terminated (SIGTERM); no sample had finished (rerun to start)\n"

@@ -7,13 +7,20 @@ against it):
 from __future__ import annotations
 
 import argparse
+import logging
+import os
+import signal
 import sys
-from typing import NoReturn, Sequence
+import threading
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Iterator, NoReturn, Sequence
 
 EXIT_OK = 0
 EXIT_ERROR = 2
 EXIT_SAMPLES = 3
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 #: Every exit status of ``python -m nnm sweep`` and what it means.
 EXIT_CODES = {
@@ -24,6 +31,8 @@ EXIT_CODES = {
     EXIT_SAMPLES: "the sweep ran, but some rows have `status = failed` (and the reason) or some samples no row (an error "
     "on a worker; a rerun computes them): stderr names them",
     EXIT_INTERRUPTED: "interrupted (Ctrl-C): the finished samples are in `sweep.csv`; rerun the same command to go on",
+    EXIT_TERMINATED: "stopped by SIGTERM (`kill`, `timeout`, a batch scheduler) as by Ctrl-C: the finished samples are in "
+    "`sweep.csv`; rerun the same command to go on",
 }
 
 __doc__ += "".join(f"\n- {code}: {meaning}" for code, meaning in EXIT_CODES.items()) + "\n"
@@ -105,8 +114,81 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Stopped(KeyboardInterrupt):
+    """The first Ctrl-C or SIGTERM of a sweep: raised on the main thread wherever it is, so
+    that the sweep stops as Ctrl-C stops it (the samples running are cancelled, the Dask
+    cluster closed; every finished row is already in ``sweep.csv``)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+    @property
+    def exit_code(self) -> int:
+        """128 + the signal's number, as ``nnm run`` exits: 130 for Ctrl-C, 143 for SIGTERM."""
+        return 128 + self.signum
+
+
+#: The signals that stop a sweep, and how the line printed at once names them.
+STOPPING = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated (SIGTERM)"}
+
+
+def _stopped_line(signum: int, out: Path) -> str:
+    what = STOPPING[signal.Signals(signum)]
+    if (out / "sweep.csv").exists():
+        return f"nnm sweep: {what}; the finished samples are in {out}/sweep.csv (rerun to go on)\n"
+    return f"nnm sweep: {what}; no sample had finished (rerun to start)\n"
+
+
+def _quit(signum: int, frame: Any) -> None:
+    """A second signal: the process ends at once, by that signal (as shells expect of a
+    process that did not finish). Each row of ``sweep.csv`` is one write, which a Python
+    handler cannot split: the file holds every row written, whole."""
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+
+
+@contextmanager
+def _stop_on_signals(out: Path) -> Iterator[None]:
+    """While the sweep runs, the first Ctrl-C or SIGTERM prints one line at once (where the
+    finished samples are) and raises :class:`Stopped`; a second quits at once. The handlers
+    before are restored after (``main`` may be called in-process; signals can only be handled
+    on the main thread: elsewhere nothing is installed)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def first(signum: int, frame: Any) -> None:
+        for s in STOPPING:
+            signal.signal(s, _quit)
+        # os.write, not print: the handler may run while the main thread is inside a print to
+        # stderr (a buffered write would be a reentrant call).
+        os.write(2, _stopped_line(signum, out).encode())
+        # The cluster is now closed on purpose: Dask's warnings of this process about it
+        # (a worker still computing, then killed) would only blur that line.
+        logging.getLogger("distributed").setLevel(logging.ERROR)
+        raise Stopped(signum)
+
+    before = {s: signal.getsignal(s) for s in STOPPING}
+    try:
+        for s in STOPPING:
+            signal.signal(s, first)
+        yield
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    try:
+        with _stop_on_signals(Path(args.out)):
+            return _main(args)
+    except Stopped as stopped:  # the user was told when the signal came
+        return stopped.exit_code
+
+
+def _main(args: argparse.Namespace) -> int:
     from .sweeps import sweep
 
     if args.samples < 0:
@@ -140,9 +222,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, TypeError, OSError) as e:  # OSError: a scheduler not answering, a file
         print(f"error: {e}", file=sys.stderr)
         return EXIT_ERROR
-    except KeyboardInterrupt:
-        print(f"nnm sweep: interrupted; the finished samples are in {args.out}/sweep.csv (rerun to go on)", file=sys.stderr)
-        return EXIT_INTERRUPTED
     if not args.quiet:
         print(f"{result!r}\n  {result.out}/sweep.csv, statistics.csv, samples/{', figures' if not args.no_figures else ''}")
     if result.failed_rows:

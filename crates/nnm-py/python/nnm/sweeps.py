@@ -510,7 +510,9 @@ def sweep(
         if pending:
             if own_client is not None:
                 say(f"nnm sweep: on {_describe(client)}")
-            with csv_path.open("a", newline="") as f:
+            # Line-buffered: each row reaches the file in the one write of its line (a signal
+            # that quits at once, between rows, loses none).
+            with csv_path.open("a", newline="", buffering=1) as f:
                 writer = csv.writer(f)
                 for result in _results(client, str(job_path), pending, seed, localization_sectors, say):
                     row = result["row"]
