@@ -452,6 +452,24 @@ def test_a_corrupted_row_is_refused_naming_the_file_and_line(write_job, tmp_path
     assert path.read_text() == "".join(lines)  # left as it was
 
 
+def test_an_infinite_grid_value_is_a_row_a_rerun_reads_and_nan_is_refused(write_job, tmp_path: Path, threads_client) -> None:
+    """A job's limit may be infinite (`energy_max = inf`: none), so a grid may hold it: its
+    rows were written, then refused as "not a finite number" after the sweep (exit 2 with the
+    files written; found by test_sweep_properties.py). NaN, which no row can match on a
+    rerun, is refused before anything is written."""
+    job = write_job(SMALL_DISK)
+    out = tmp_path / "o"
+    run = dict(grid={"branch.mode-1-2.energy_max": [10.0, float("inf")]}, client=threads_client, progress=False, figures=False)
+    done = sweeps.sweep(job, out, **run)
+    assert (done.computed, done.failed, done.missing) == (2, 0, [])
+    assert [r["branch.mode-1-2.energy_max"] for r in rows(out)] == ["10.0", "inf"]
+    again = sweeps.sweep(job, out, **run)
+    assert (again.computed, again.skipped) == (0, 2)
+    with pytest.raises(ValueError, match=r"^grid parameter `branch.mode-1-2.energy_max` takes numbers, got nan$"):
+        sweeps.sweep(job, tmp_path / "n", **{**run, "grid": {"branch.mode-1-2.energy_max": [10.0, float("nan")]}})
+    assert not (tmp_path / "n").exists()
+
+
 def test_the_readme_lists_the_modules_exit_codes() -> None:
     """The exit statuses are declared once, in nnm.__main__.EXIT_CODES (its docstring and
     --help print them): the README's table says the same."""

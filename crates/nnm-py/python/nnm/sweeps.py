@@ -138,6 +138,8 @@ def _numeric(key: str, value: Any) -> int | float:
     """A grid value: an int stays one (keys such as `sectors` take only integers)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"grid parameter `{key}` takes numbers, got {value!r}")
+    if value != value:  # a NaN row would match no sample on a rerun
+        raise ValueError(f"grid parameter `{key}` takes numbers, got {value!r}")
     return int(value) if isinstance(value, (int, np.integer)) else float(value)
 
 
@@ -358,9 +360,19 @@ def _row_key(row: dict[str, str], grid_keys: list[str]) -> tuple:
             raise ValueError(f"{column} `{row[column]}` is not {'a finite number' if kind is float else 'a non-negative integer'}")
         return value
 
+    def grid_value(column: str) -> float:
+        # A grid value may be infinite, as a job's limit may (`energy_max = inf`, none).
+        text = row[column]
+        if text.strip().lower().lstrip("+-") in ("inf", "infinity"):
+            return float(text)
+        try:
+            return read(column, float)
+        except ValueError:
+            raise ValueError(f"{column} `{text}` is not a number") from None
+
     if not row["branch"]:
         raise ValueError("the branch is empty")
-    return (row["branch"], tuple((k, read(k, float)) for k in grid_keys), read("sigma", float), read("replicate", int))
+    return (row["branch"], tuple((k, grid_value(k)) for k in grid_keys), read("sigma", float), read("replicate", int))
 
 
 def _write_curve(path: Path, curve: dict[str, np.ndarray]) -> None:
