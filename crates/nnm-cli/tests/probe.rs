@@ -667,3 +667,127 @@ fn branches_whose_files_collide_are_refused_naming_both() {
         refused_before_anything_runs(&dir, &format!("{MODEL}{good}{bad}"), expected);
     }
 }
+
+/// A two-dof general model `K = a K0`, `M = b M0` (`K0 = [[1, -0.5], [-0.5, 1]]`,
+/// `M0 = diag(1, 0.5)`) with one branch.
+fn scaled_model(a: f64, b: f64) -> String {
+    format!(
+        "[model]\nmass = [[{b:e}, 0.0], [0.0, {:e}]]\nstiffness = [[{a:e}, {:e}], [{:e}, {a:e}]]\n{}",
+        0.5 * b,
+        -0.5 * a,
+        -0.5 * a,
+        job("b", 0, "energy_max = 1.0\nmax_points = 3"),
+    )
+}
+
+/// `nnm modes`' frequencies (rad/s), and whether any mode is called rigid.
+fn listed_modes(output: &Output) -> (Vec<f64>, bool) {
+    assert!(output.status.success(), "{}", stderr_of(output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let rows: Vec<&str> = stdout.lines().skip(1).collect();
+    let frequencies = rows
+        .iter()
+        .map(|l| l.split_whitespace().nth(1).unwrap().parse().unwrap())
+        .collect();
+    (frequencies, stdout.contains("rigid"))
+}
+
+/// Extreme scales (issue 29): a model's modes do not depend on its units. `K` of order 1e154
+/// (or a mass of order 1e-300) used to read both elastic modes as rigid at 0 rad/s (`nnm
+/// modes` exit 0, `nnm run` refused with "rigid-body mode"); now the frequencies are
+/// `√(a/b)` times the unscaled model's, and `K` and `M` scaled together run the same branch.
+/// Entries double precision cannot hold in full — subnormal, or whose square overflows — are
+/// refused in one line naming the matrix, the entry and the remedy, before anything is
+/// written (job-file rows 0-based as every model error, Matrix Market files 1-based).
+#[test]
+fn extreme_scales_give_the_model_s_own_modes_or_a_reason() {
+    let dir = scratch("scales");
+    let modes_of = |a: f64, b: f64| {
+        let path = write(&dir, "job.toml", &scaled_model(a, b));
+        listed_modes(&nnm(&["modes", &path]))
+    };
+    let (reference, rigid) = modes_of(1.0, 1.0);
+    assert!(!rigid && reference.len() == 2);
+    for (a, b) in [(1e154, 1.0), (1e154, 1e154), (1.0, 1e-300), (1e100, 1e-200)] {
+        let (frequencies, rigid) = modes_of(a, b);
+        assert!(!rigid, "K x {a:e}, M x {b:e}: a mode called rigid");
+        for (f, r) in frequencies.iter().zip(&reference) {
+            let expected = r * (a / b).sqrt();
+            assert!(
+                (f / expected - 1.0).abs() < 1e-8,
+                "K x {a:e}, M x {b:e}: {f} vs {expected}"
+            );
+        }
+    }
+    // The branch: K = 1e154 K0 alone (once refused as a rigid-body mode) runs, and K and M
+    // scaled together give the unscaled model's frequencies.
+    let frequencies_of_run = |a: f64, b: f64| {
+        let path = write(&dir, "job.toml", &scaled_model(a, b));
+        let out = dir.join("out");
+        let output = nnm(&["run", &path, "--out", out.to_str().unwrap(), "-q"]);
+        assert!(output.status.success(), "{}", stderr_of(&output));
+        let csv = std::fs::read_to_string(out.join("b.csv")).unwrap();
+        let column = csv
+            .lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|c| c == "frequency_rad_s")
+            .unwrap();
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(column).unwrap().parse::<f64>().unwrap())
+            .collect::<Vec<f64>>()
+    };
+    let unscaled = frequencies_of_run(1.0, 1.0);
+    let scaled = frequencies_of_run(1e154, 1e154);
+    assert_eq!(unscaled.len(), scaled.len());
+    for (f, r) in scaled.iter().zip(&unscaled) {
+        assert!((f / r - 1.0).abs() < 1e-9, "{f} vs {r}");
+    }
+    let stiff = frequencies_of_run(1e154, 1.0);
+    assert!(
+        (stiff[0] / (reference[0] * 1e77) - 1.0).abs() < 1e-4,
+        "{stiff:?}"
+    );
+    // Refused, by `nnm modes` and `nnm run` alike, nothing written.
+    for (a, b, expected) in [
+        (
+            1.0,
+            1e-310,
+            "mass matrix entry (0, 0) = 1.000e-310 is subnormal (below 2.2e-308) and has lost digits in double precision: rescale the model's units",
+        ),
+        (
+            1e300,
+            1.0,
+            "stiffness matrix entry (0, 0) = 1.000e300 is beyond 1.3e154, where its square overflows double precision: rescale the model's units",
+        ),
+        (
+            1.7e308,
+            1e308,
+            "mass matrix entry (0, 0) = 1.000e308 is beyond 1.3e154",
+        ),
+    ] {
+        let path = write(&dir, "job.toml", &scaled_model(a, b));
+        assert_one_error_line(&nnm(&["modes", &path]), 1, expected);
+        let out = dir.join("refused");
+        let output = nnm(&["run", &path, "--out", out.to_str().unwrap()]);
+        assert_one_error_line(&output, 1, expected);
+        assert!(!out.exists(), "{expected}: nothing may be written");
+    }
+    write(
+        &dir,
+        "K.mtx",
+        "%%MatrixMarket matrix coordinate real symmetric\n2 2 3\n1 1 1.0\n2 1 -0.5\n2 2 3e-320\n",
+    );
+    let path = write(
+        &dir,
+        "job.toml",
+        "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\nstiffness = { file = \"K.mtx\" }\n",
+    );
+    assert_one_error_line(
+        &nnm(&["modes", &path]),
+        1,
+        "K.mtx: stiffness matrix entry (2, 2) = 3.000e-320 is subnormal (below 2.2e-308) and has lost digits in double precision: rescale the model's units",
+    );
+}

@@ -207,9 +207,13 @@ impl SparseLuPattern {
 }
 
 impl<T: faer::traits::ComplexField> SparseLu<T> {
-    /// Solves `A X = B` in place for `cols` contiguous column-major columns of `b`.
+    /// Solves `A X = B` in place for `cols` contiguous column-major columns of `b` (none: a
+    /// model without nonlinear dofs has no low-rank columns to solve for).
     pub fn solve_in_place(&self, b: &mut [T], cols: usize) {
-        let n = b.len() / cols.max(1);
+        if cols == 0 {
+            return;
+        }
+        let n = b.len() / cols;
         let rhs = faer::MatMut::from_column_major_slice_mut(b, n, cols);
         let mut buffer = scratch(
             self.symbolic

@@ -16,7 +16,7 @@ mod sectors;
 mod shift_invert;
 
 pub use sectors::add_labelled_mode;
-use shift_invert::{Csr, Operators};
+use shift_invert::{Csr, Operators, Scale};
 pub use shift_invert::{ELASTIC_ROUNDING, RESIDUAL_ROUNDING, RESIDUAL_TOLERANCE, RIGID_ROUNDING};
 
 /// A linear normal mode.
@@ -168,11 +168,14 @@ pub fn linear_modes<S: MechanicalSystem + ?Sized>(
     system: &S,
 ) -> Result<Vec<LinearMode>, ModesError> {
     let n = system.dofs();
-    let sparse = Operators::sparse(system);
+    let sparse = Operators::sparse(system).map(|ops| {
+        let scale = Scale::of(&ops);
+        (scale.operators(ops), scale)
+    });
     let lowest =
         |ops: &Operators| shift_invert::to_modes(shift_invert::lowest(ops, LARGE_MODEL_MODES)?);
     let mut modes = match sparse {
-        Some(ops) if n > DENSE_MODES_LIMIT => lowest(&ops)?,
+        Some((ops, scale)) if n > DENSE_MODES_LIMIT => scale.unscale(lowest(&ops))?,
         sparse => all_modes(system, sparse, lowest)?,
     };
     if let Some(cyclic) = system.cyclic_symmetry() {
@@ -183,22 +186,46 @@ pub fn linear_modes<S: MechanicalSystem + ?Sized>(
 
 /// Every mode of `system` by a dense eigen-decomposition refined against `K` and `M`
 /// ([`linear_modes`]), or `lowest` of its sparse operators when the stiff end cannot be
-/// refined to the residual check.
+/// refined to the residual check. `sparse` comes scaled, with its scale; the dense matrices
+/// get the same one (or their own), and the modes are returned for the model as given.
 fn all_modes<S: MechanicalSystem + ?Sized>(
     system: &S,
+    sparse: Option<(Operators, Scale)>,
+    lowest: impl Fn(&Operators) -> Result<Vec<LinearMode>, ModesError>,
+) -> Result<Vec<LinearMode>, ModesError> {
+    let (mass, stiffness) = linearised_matrices(system);
+    let largest = |a: &Mat<f64>| {
+        (0..a.ncols())
+            .flat_map(|j| (0..a.nrows()).map(move |i| (i, j)))
+            .fold(0.0f64, |m, (i, j)| m.max(a[(i, j)].abs()))
+    };
+    let scale = sparse.as_ref().map_or_else(
+        || Scale::new(largest(&stiffness), largest(&mass)),
+        |(_, s)| *s,
+    );
+    let (sk, sm) = scale.factors();
+    let n = mass.nrows();
+    let stiffness = Mat::from_fn(n, n, |i, j| sk * stiffness[(i, j)]);
+    let mass = Mat::from_fn(n, n, |i, j| sm * mass[(i, j)]);
+    scale.unscale(scaled_modes(&stiffness, &mass, sparse.map(|s| s.0), lowest))
+}
+
+/// [`all_modes`] on the scaled pencil.
+fn scaled_modes(
+    stiffness: &Mat<f64>,
+    mass: &Mat<f64>,
     sparse: Option<Operators>,
     lowest: impl Fn(&Operators) -> Result<Vec<LinearMode>, ModesError>,
 ) -> Result<Vec<LinearMode>, ModesError> {
-    let n = system.dofs();
-    let (mass, stiffness) = linearised_matrices(system);
-    let (eigenvalues, shapes) = symmetric_pencil(&stiffness, &mass)?;
+    let n = mass.nrows();
+    let (eigenvalues, shapes) = symmetric_pencil(stiffness, mass)?;
     let shapes: Vec<f64> = (0..n)
         .flat_map(|k| (0..n).map(move |i| (i, k)))
         .map(|(i, k)| shapes[(i, k)])
         .collect();
     let is_sparse = sparse.is_some();
-    let ops = sparse
-        .unwrap_or_else(|| Operators::new(Csr::from_dense(&stiffness), Csr::from_dense(&mass)));
+    let ops =
+        sparse.unwrap_or_else(|| Operators::new(Csr::from_dense(stiffness), Csr::from_dense(mass)));
     match shift_invert::refine_dense(&ops, &shapes, eigenvalues.len()) {
         // The stiffest clusters of a very stiff model (a von Kármán beam's axial modes) can
         // stay above the residual tolerance (69) however long they are refined — measured:
@@ -247,7 +274,11 @@ pub fn lowest_modes<S: MechanicalSystem + ?Sized>(
 ) -> Result<Vec<LinearMode>, ModesError> {
     let n = system.dofs();
     let mut modes = match Operators::sparse(system) {
-        Some(ops) => shift_invert::to_modes(shift_invert::lowest(&ops, count)?)?,
+        Some(ops) => {
+            let scale = Scale::of(&ops);
+            let ops = scale.operators(ops);
+            scale.unscale(shift_invert::to_modes(shift_invert::lowest(&ops, count)?))?
+        }
         None if n <= DENSE_MODES_LIMIT => {
             let mut all = linear_modes(system)?;
             all.truncate(count.min(n));
@@ -614,6 +645,50 @@ mod tests {
             assert!(modes.iter().all(|m| !m.rigid));
             assert!((modes[0].frequency - 1.0).abs() < 1e-15);
             assert!((modes[1].frequency - 1e6).abs() < 1e-9);
+        }
+    }
+
+    /// A model's modes do not depend on its units: `K0 = [[1, -0.5], [-0.5, 1]]` and `M0`
+    /// (diagonal, then full) scaled by `a` and `b` from 1e-300 to 1e154 give `ω = √(a/b) ω0`
+    /// and `v = v0 / √b`, every mode elastic, from both paths. (The checks of eqs. (69)–(70)
+    /// formed squares of `K v` that overflowed or underflowed, and read the modes as rigid.)
+    #[test]
+    fn modes_do_not_depend_on_the_units() {
+        use crate::model::Structure;
+        let scaled = |a: &Matrix, c: f64| Matrix::from_fn(2, 2, |i, j| c * a.get(i, j));
+        let k0 = Matrix::from_fn(2, 2, |i, j| if i == j { 1.0 } else { -0.5 });
+        let diagonal =
+            Matrix::from_fn(2, 2, |i, j| if i == j { 1.0 / (i + 1) as f64 } else { 0.0 });
+        let full = Matrix::from_fn(2, 2, |i, j| if i == j { 1.0 } else { 0.25 });
+        for m0 in [diagonal, full] {
+            let reference =
+                linear_modes(&Structure::new(m0.clone(), k0.clone(), vec![]).unwrap()).unwrap();
+            for (a, b) in [
+                (1e154, 1.0),
+                (1e154, 1e154),
+                (1.0, 1e-300),
+                (1e-300, 1e-300),
+                (1e-300, 1.0),
+                (1e100, 1e-200),
+            ] {
+                let s = Structure::new(scaled(&m0, b), scaled(&k0, a), vec![]).unwrap();
+                for modes in [linear_modes(&s).unwrap(), lowest_modes(&s, 2).unwrap()] {
+                    assert_eq!(modes.len(), 2);
+                    for (m, r) in modes.iter().zip(&reference) {
+                        let expected = r.frequency * (a / b).sqrt();
+                        assert!(!m.rigid, "K x {a:e}, M x {b:e}: {modes:?}");
+                        assert!(
+                            (m.frequency / expected - 1.0).abs() < 1e-12,
+                            "K x {a:e}, M x {b:e}: {} vs {expected}",
+                            m.frequency
+                        );
+                        let sign = linalg::dot(&m.shape, &r.shape).signum();
+                        for (x, y) in m.shape.iter().zip(&r.shape) {
+                            assert!((sign * x * b.sqrt() - y).abs() < 1e-12, "{x} vs {y}");
+                        }
+                    }
+                }
+            }
         }
     }
 

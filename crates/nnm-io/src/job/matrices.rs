@@ -10,9 +10,9 @@ use super::schema::MatrixSpec;
 use crate::matrix_market::{MarketMatrix, read_matrix_market};
 
 /// Reads `mass` (`expected` = `None`) or `stiffness` (`Some(n)`, the mass's size). A file's
-/// matrix is checked before it is stored: square, of the expected size, symmetric and finite
-/// (errors name the file and the entry, 1-based as in the file); a coordinate file stays
-/// sparse (`O(nnz)`, no size limit).
+/// matrix is checked before it is stored: square, of the expected size, symmetric, finite and
+/// in range ([`Matrix::out_of_range`]) (errors name the file and the entry, 1-based as in the
+/// file); a coordinate file stays sparse (`O(nnz)`, no size limit).
 pub(super) fn load_matrix(
     spec: &MatrixSpec,
     name: &'static str,
@@ -88,6 +88,13 @@ fn check_file_matrix(
                 p.col[k] + 1
             )));
         }
+    }
+    if let Some((i, j, value, why)) = m.out_of_range() {
+        return Err(invalid(format!(
+            "entry ({}, {}) = {value:.3e} is {why}: rescale the model's units",
+            i + 1,
+            j + 1
+        )));
     }
     if let Some((i, j, a, b)) = m.asymmetry(FILE_SYMMETRY_TOLERANCE) {
         return Err(invalid(format!(

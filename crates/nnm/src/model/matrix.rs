@@ -151,6 +151,9 @@ impl From<SparseMatrix> for Matrix {
     }
 }
 
+/// The largest entry magnitude a matrix may hold, `√f64::MAX`.
+const LARGEST_ENTRY: f64 = 1.340_780_792_994_259_6e154;
+
 impl Matrix {
     /// A dense matrix from a function of `(row, column)`.
     pub fn from_fn(rows: usize, cols: usize, f: impl FnMut(usize, usize) -> f64) -> Self {
@@ -270,6 +273,32 @@ impl Matrix {
                 d
             }
         }
+    }
+
+    /// The first entry `(i, j, a_ij, why)`, in storage order, that double precision does not
+    /// hold with full accuracy, if any: a subnormal one (below `f64::MIN_POSITIVE`; zeros are
+    /// fine) or one beyond `√f64::MAX ≈ 1.34e154`, whose square — formed by the norms of modal
+    /// analysis and the solvers — overflows. `why` says which, for a message.
+    pub fn out_of_range(&self) -> Option<(usize, usize, f64, &'static str)> {
+        self.entries().find_map(|(i, j, v)| {
+            if v.abs() > LARGEST_ENTRY {
+                Some((
+                    i,
+                    j,
+                    v,
+                    "beyond 1.3e154, where its square overflows double precision",
+                ))
+            } else if v != 0.0 && v.abs() < f64::MIN_POSITIVE {
+                Some((
+                    i,
+                    j,
+                    v,
+                    "subnormal (below 2.2e-308) and has lost digits in double precision",
+                ))
+            } else {
+                None
+            }
+        })
     }
 
     /// The first entry `(i, j, a_ij, a_ji)`, in storage order, where `A` and `Aᵀ` differ by

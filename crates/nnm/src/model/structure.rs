@@ -32,6 +32,22 @@ pub enum ModelError {
         /// Column of the entry (0-based).
         col: usize,
     },
+    /// A matrix entry is outside the range double precision holds with full accuracy: subnormal
+    /// (below `f64::MIN_POSITIVE`, digits lost) or beyond `√f64::MAX ≈ 1.34e154` (its square,
+    /// which the norms of modal analysis and the solvers form, overflows).
+    #[error("{name} matrix entry ({row}, {col}) = {value:.3e} is {why}: rescale the model's units")]
+    OutOfRange {
+        /// Which matrix (`mass`, `stiffness` or `damping`).
+        name: &'static str,
+        /// Row of the entry (0-based).
+        row: usize,
+        /// Column of the entry (0-based).
+        col: usize,
+        /// The entry.
+        value: f64,
+        /// Which bound it passes ([`Matrix::out_of_range`]).
+        why: &'static str,
+    },
     /// A matrix differs from its transpose by more than `1e-10` of its largest entry.
     #[error("{name} matrix is not symmetric: entry ({row}, {col}) differs from ({col}, {row})")]
     NotSymmetric {
@@ -354,6 +370,15 @@ pub(super) fn check_finite_symmetric(name: &'static str, m: &Matrix) -> Result<(
     if let Some((row, col, _)) = m.entries().find(|e| !e.2.is_finite()) {
         return Err(ModelError::NotFinite { name, row, col });
     }
+    if let Some((row, col, value, why)) = m.out_of_range() {
+        return Err(ModelError::OutOfRange {
+            name,
+            row,
+            col,
+            value,
+            why,
+        });
+    }
     match m.asymmetry(1e-10) {
         Some((i, j, _, _)) => Err(ModelError::NotSymmetric {
             name,
@@ -588,6 +613,22 @@ mod tests {
             Structure::new(k.clone(), nan, vec![]),
             Err(ModelError::NotFinite { .. })
         ));
+        // Entries double precision cannot hold in full: subnormal, or with a square that
+        // overflows (the scale of a model is free, but not beyond what f64 can square).
+        let tiny = Matrix::from_fn(2, 2, |i, j| if i == j { 1e-310 } else { 0.0 });
+        let error = Structure::new(tiny, k.clone(), vec![]).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "mass matrix entry (0, 0) = 1.000e-310 is subnormal (below 2.2e-308) and has lost digits in double precision: rescale the model's units"
+        );
+        let huge = Matrix::from_fn(2, 2, |i, j| if i == 1 && j == 1 { 2e154 } else { 0.0 });
+        let error = Structure::new(k.clone(), huge, vec![]).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "stiffness matrix entry (1, 1) = 2.000e154 is beyond 1.3e154, where its square overflows double precision: rescale the model's units"
+        );
+        let largest = Matrix::from_fn(2, 2, |i, j| if i == j { 1.34e154 } else { 0.0 });
+        assert!(Structure::new(largest.clone(), largest, vec![]).is_ok());
         let far =
             vec![Box::new(PolynomialSpring::cubic(5, None, 1.0)) as Box<dyn NonlinearElement>];
         assert!(matches!(

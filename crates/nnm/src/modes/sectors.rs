@@ -11,7 +11,7 @@
 
 use std::f64::consts::PI;
 
-use super::shift_invert::{self, Operators};
+use super::shift_invert::{self, Operators, Scale};
 use super::{
     CyclicLabel, LinearMode, ModesError, StandingWave, find_mode, standing_waves, symmetric_pencil,
 };
@@ -41,6 +41,9 @@ pub fn add_labelled_mode<S: MechanicalSystem + ?Sized>(
     let (Some(cyclic), Some(ops)) = (system.cyclic_symmetry(), Operators::sparse(system)) else {
         return Ok(());
     };
+    // Checked on the scaled pencil, as every other mode (`Scale`).
+    let scale = Scale::of(&ops);
+    let ops = scale.operators(ops);
     let (sectors, s) = (cyclic.sectors, cyclic.dofs_per_sector);
     if diameters > sectors / 2 || circles >= s {
         return Ok(());
@@ -94,7 +97,8 @@ pub fn add_labelled_mode<S: MechanicalSystem + ?Sized>(
         ]
     };
     let mut residual = vec![0.0; n];
-    for (shape, wave) in shapes {
+    for (mut shape, wave) in shapes {
+        scale.to_scaled_shape(&mut shape);
         let check = shift_invert::check(&ops, &shape, &mut residual);
         if !check.converged() {
             return Err(ModesError::NotConverged {
@@ -102,7 +106,8 @@ pub fn add_labelled_mode<S: MechanicalSystem + ?Sized>(
                 residual: check.residual,
             });
         }
-        let mut mode = shift_invert::to_modes(vec![(check, shape)])?
+        let mut mode = scale
+            .unscale(shift_invert::to_modes(vec![(check, shape)]))?
             .pop()
             .expect("one mode in, one out");
         mode.cyclic = Some(CyclicLabel {

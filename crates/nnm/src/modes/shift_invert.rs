@@ -269,6 +269,101 @@ impl Operators {
     }
 }
 
+/// `2^e` for `-1022 ≤ e ≤ 1023`, exactly.
+fn pow2(e: i32) -> f64 {
+    debug_assert!((-1022..=1023).contains(&e));
+    f64::from_bits(((e + 1023) as u64) << 52)
+}
+
+/// The even power-of-two exponent nearest `max` (0 for zero or non-finite), within the range
+/// whose powers and inverse powers are normal numbers.
+fn even_exponent(max: f64) -> i32 {
+    if !(max > 0.0 && max.is_finite()) {
+        return 0;
+    }
+    let e = max.log2().round() as i32;
+    (e - e.rem_euclid(2)).clamp(-1022, 1022)
+}
+
+/// Exact power-of-two scales of `K` and `M`: the analysis runs on `K_s = 2^-k K` and
+/// `M_s = 2^-m M`, whose largest entries are near 1, and its modes are mapped back
+/// (`ω = 2^((k-m)/2) ω_s`, `v = 2^(-m/2) v_s`, both exact). Why: the checks of eqs. (69)–(70)
+/// form norms of `K v` and `vᵀ K v`; with `K` of order 1e154 or a mass of order 1e-300 their
+/// squares overflow (or underflow), which read every elastic mode as rigid. Every check is a
+/// ratio, so on the scaled pencil it decides as on a model of ordinary units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Scale {
+    k: i32,
+    m: i32,
+}
+
+impl Scale {
+    /// From the largest magnitudes of `K`'s and `M`'s entries.
+    pub fn new(max_k: f64, max_m: f64) -> Self {
+        Self {
+            k: even_exponent(max_k),
+            m: even_exponent(max_m),
+        }
+    }
+
+    /// The scale of the operators' own entries.
+    pub fn of(ops: &Operators) -> Self {
+        let max = |a: &Csr| a.value.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        Self::new(max(&ops.k), max(&ops.m))
+    }
+
+    /// The factors `(2^-k, 2^-m)` that scale `K` and `M`.
+    pub fn factors(&self) -> (f64, f64) {
+        (pow2(-self.k), pow2(-self.m))
+    }
+
+    /// The scaled operators (weights recomputed).
+    pub fn operators(&self, ops: Operators) -> Operators {
+        let (mut k, mut m) = (ops.k, ops.m);
+        let (sk, sm) = self.factors();
+        k.value.iter_mut().for_each(|v| *v *= sk);
+        m.value.iter_mut().for_each(|v| *v *= sm);
+        Operators::new(k, m)
+    }
+
+    /// A mass-normalised shape of the model as given, as one of the scaled pencil.
+    pub fn to_scaled_shape(&self, v: &mut [f64]) {
+        let s = pow2(self.m / 2);
+        v.iter_mut().for_each(|x| *x *= s);
+    }
+
+    /// Modes of the scaled pencil (or its error) as those of the model as given.
+    pub fn unscale(
+        &self,
+        modes: Result<Vec<LinearMode>, ModesError>,
+    ) -> Result<Vec<LinearMode>, ModesError> {
+        let (frequency, shape) = (pow2((self.k - self.m) / 2), pow2(-self.m / 2));
+        let omega_squared = |x: f64| x * frequency * frequency;
+        match modes {
+            Ok(mut modes) => {
+                for mode in &mut modes {
+                    mode.frequency *= frequency;
+                    mode.shape.iter_mut().for_each(|x| *x *= shape);
+                }
+                Ok(modes)
+            }
+            Err(ModesError::NegativeStiffness(theta)) => {
+                Err(ModesError::NegativeStiffness(omega_squared(theta)))
+            }
+            Err(ModesError::IllConditioned {
+                mode,
+                omega_squared: theta,
+                rounding_units,
+            }) => Err(ModesError::IllConditioned {
+                mode,
+                omega_squared: omega_squared(theta),
+                rounding_units,
+            }),
+            Err(e) => Err(e),
+        }
+    }
+}
+
 /// What the residual check says of one vector (eqs. (69), (70)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Check {
