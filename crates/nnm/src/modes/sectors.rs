@@ -98,7 +98,7 @@ pub fn add_labelled_mode<S: MechanicalSystem + ?Sized>(
     };
     let mut residual = vec![0.0; n];
     for (mut shape, wave) in shapes {
-        scale.to_scaled_shape(&mut shape);
+        scale.scale_shape(&mut shape);
         let check = shift_invert::check(&ops, &shape, &mut residual);
         if !check.converged() {
             return Err(ModesError::NotConverged {

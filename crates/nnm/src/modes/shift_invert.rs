@@ -327,7 +327,7 @@ impl Scale {
     }
 
     /// A mass-normalised shape of the model as given, as one of the scaled pencil.
-    pub fn to_scaled_shape(&self, v: &mut [f64]) {
+    pub fn scale_shape(&self, v: &mut [f64]) {
         let s = pow2(self.m / 2);
         v.iter_mut().for_each(|x| *x *= s);
     }
