@@ -42,7 +42,9 @@ pub fn exit_code() -> u8 {
 }
 
 /// The lines printed on the first Ctrl-C or SIGTERM, from the handler (so only `write(2)`,
-/// which is async-signal-safe, not Rust's buffered, locking `eprintln!`).
+/// which is async-signal-safe, not Rust's buffered, locking `eprintln!`). The leading newline
+/// only after progress lines (a blank line between them), or where a terminal echoed `^C`
+/// ([`newline_first`]): stderr never starts with a blank line.
 const MESSAGE: &[u8] = b"\ninterrupted: finishing the points in progress and writing what is done (Ctrl-C again to quit at once)\n";
 const TERMINATED: &[u8] = b"\nterminated (SIGTERM): finishing the points in progress and writing what is done (a second signal quits at once)\n";
 
@@ -56,6 +58,11 @@ extern "C" fn on_signal(signal: libc::c_int) {
         } else {
             MESSAGE
         };
+        let message = if newline_first(signal) {
+            message
+        } else {
+            &message[1..]
+        };
         // SAFETY: write(2) is async-signal-safe; the buffer is static. Its result is ignored:
         // nothing can be done about a closed stderr here.
         unsafe {
@@ -68,6 +75,17 @@ extern "C" fn on_signal(signal: libc::c_int) {
     if WRITING.load(Ordering::SeqCst) == 0 || RECEIVED.load(Ordering::SeqCst) > 2 {
         quit(signal);
     }
+}
+
+/// Whether stderr was a terminal when the handlers were installed.
+static TERMINAL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether the first signal's line starts on a new line: after a progress line, or after the
+/// `^C` a terminal echoes for Ctrl-C (not for a `kill`, which echoes nothing, nor into a file
+/// or pipe). Atomic loads only: async-signal-safe.
+#[cfg(unix)]
+fn newline_first(signal: libc::c_int) -> bool {
+    crate::progress::said() || (signal == libc::SIGINT && TERMINAL.load(Ordering::SeqCst))
 }
 
 /// Removes the lock and ends the process by `signal` (its default action), only
@@ -147,6 +165,7 @@ pub fn install() {
     // SAFETY: called first thing in main, before any other thread exists; the handler only
     // uses atomics and async-signal-safe calls.
     unsafe {
+        TERMINAL.store(libc::isatty(2) == 1, Ordering::SeqCst);
         let mut action: libc::sigaction = std::mem::zeroed();
         action.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
         action.sa_flags = libc::SA_RESTART;

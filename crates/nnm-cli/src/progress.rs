@@ -26,6 +26,12 @@ pub fn line(text: std::fmt::Arguments<'_>) {
     SAID.store(true, Ordering::Relaxed);
 }
 
+/// Whether a progress line came before: the interrupt handler's line is set off from them by
+/// a blank line, and has none before it otherwise. An atomic load: async-signal-safe.
+pub fn said() -> bool {
+    SAID.load(Ordering::Relaxed)
+}
+
 /// A blank line on stderr between the progress lines and what follows them (the summary,
 /// the `error:` line) — none when no line came before, so that stderr never starts with a
 /// blank line (a run whose only branch failed before its first point says just its error).

@@ -190,7 +190,7 @@ fn ctrl_c_writes_what_was_finished() {
         "sigint",
         libc::SIGINT,
         130,
-        "\ninterrupted: finishing the points in progress and writing what is done (Ctrl-C again to quit at once)\n",
+        "interrupted: finishing the points in progress and writing what is done (Ctrl-C again to quit at once)\n",
     );
 }
 
@@ -203,7 +203,34 @@ fn sigterm_writes_what_was_finished() {
         "sigterm",
         libc::SIGTERM,
         143,
-        "\nterminated (SIGTERM): finishing the points in progress and writing what is done (a second signal quits at once)\n",
+        "terminated (SIGTERM): finishing the points in progress and writing what is done (a second signal quits at once)\n",
+    );
+}
+
+/// The signal's line starts stderr when no progress line came before (`--quiet` above: no
+/// blank line first, issue 29), and is set off from progress lines by one blank line.
+#[cfg(unix)]
+#[test]
+fn the_signal_line_follows_progress_lines_after_a_blank_line() {
+    let dir = scratch("signal-line");
+    let path = write(&dir, "job.toml", LONG_BRANCH);
+    let out = dir.join("out");
+    let child = spawn(&[
+        "run",
+        &path,
+        "--out",
+        out.to_str().unwrap(),
+        "--threads",
+        "1",
+    ]);
+    wait_for_rows(&out.join("long.csv"), 3);
+    let output = send(child, &[libc::SIGTERM]);
+    let stderr = stderr_of(&output);
+    assert_eq!(output.status.code(), Some(143), "{stderr}");
+    assert!(stderr.starts_with("[long] "), "{stderr}");
+    assert!(
+        stderr.contains("\n\nterminated (SIGTERM): finishing the points in progress"),
+        "{stderr}"
     );
 }
 
