@@ -313,3 +313,78 @@ def test_plot_dofs_are_checked_before_anything_is_drawn(short_branch) -> None:
         plot.time_series(short_branch.motion(0, samples=4), dofs=[0.0])
     with pytest.raises(ValueError, match=r"^dof 1 is not one of the branch's 1 output_dofs$"):
         plot.amplitude([short_branch], dof=1)
+
+
+BIG = 2**64  # beyond 64 bits: was an OverflowError from the conversion to the library's integers
+
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: nnm.Force(dofs=[BIG], amplitude=1.0), rf"^`forced dof` = {BIG} is out of range$"),
+        (lambda: nnm.Force(dofs=BIG, amplitude=1.0), rf"^`forced dof` = {BIG} is out of range$"),
+        (lambda: nnm.Force(engine_order=BIG, sector_dof=0, amplitude=1.0), rf"^`engine_order` = {BIG} is out of range$"),
+        (lambda: nnm.Model(TWO, CHAIN, fixed_dofs=[BIG]), rf"^`dofs` = {BIG} is out of range$"),
+        (lambda: nnm.Model(TWO, CHAIN, [nnm.Cubic([0, BIG], 1.0)]), rf"^nonlinear element 1: `dofs` = {BIG} is out of range$"),
+        (lambda: nnm.Model(TWO, CHAIN, cyclic=(BIG, 1)), rf"^`cyclic sectors` = {BIG} is out of range$"),
+        (
+            lambda: nnm.Model(TWO, CHAIN, [nnm.Tensor(quadratic=([[BIG, 0, 0]], [1.0]))]),
+            rf"^nonlinear element 1: quadratic term index {BIG} is out of range$",
+        ),
+        (
+            lambda: nnm.Model(TWO, CHAIN, [nnm.Tensor(quadratic=(np.array([[2**63, 0, 0]], dtype=np.uint64), [1.0]))]),
+            rf"^nonlinear element 1: quadratic term index {2**63} is out of range$",
+        ),
+        (
+            lambda: nnm.frequency_response(
+                nnm.duffing(damping={"rayleigh": [0.02, 0.0]}), nnm.Force(dofs=[0], amplitude=0.1), (0.5, 1.5), output_dofs=[BIG]
+            ),
+            rf"^`output dof` = {BIG} is out of range$",
+        ),
+        (lambda: nnm.backbone(nnm.duffing(), 0, max_points=BIG), rf"^`max_points` = {BIG} is out of range$"),
+    ],
+)
+def test_integers_beyond_64_bits_are_value_errors(make, message) -> None:
+    """A dof, an index or a count of 2**64 raised OverflowError (issue 29): it is a ValueError
+    with the message of a keyword setting out of range, and a uint64 tensor index from 2**63
+    no longer wraps to a negative one."""
+    with pytest.raises(ValueError, match=message):
+        make()
+
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: nnm.Model([[True, False], [False, True]], CHAIN), r"^mass matrix must be real numbers, got dtype bool$"),
+        (lambda: nnm.Model(np.eye(2, dtype=bool), CHAIN), r"^mass matrix must be real numbers, got dtype bool$"),
+        (lambda: nnm.Model(TWO, [[2.0, True], [True, 2.0]]), r"^stiffness matrix must be real numbers, got bool$"),
+        (lambda: nnm.Model(TWO, sp.csr_matrix(np.eye(2, dtype=bool))), r"^stiffness matrix must be real numbers, got dtype bool$"),
+        (lambda: nnm.Model(TWO, CHAIN, C=[[np.True_, 0.0], [0.0, 0.1]]), r"^damping matrix must be real numbers, got bool$"),
+        (lambda: nnm.Model(TWO, CHAIN, damping={"rayleigh": [True, 0.0]}), r"^damping rayleigh must be a real number, got bool$"),
+        (lambda: nnm.Force(vector=[True, 0.0]), r"^the force vector must be a 1-D sequence of real numbers, got bool$"),
+        (lambda: nnm.Force(vector=np.array([True, False])), r"^the force vector must be a 1-D sequence of real numbers, got bool$"),
+        (
+            lambda: nnm.bladed_disk(sectors=2, blade_stiffness_mistuning=[0.0, True]),
+            r"^blade_stiffness_mistuning must be a real number, got bool$",
+        ),
+    ],
+)
+def test_booleans_are_not_numbers(make, message) -> None:
+    """Matrices of booleans were read as 0 and 1 (issue 29): a boolean where numbers are
+    expected is a TypeError naming the argument, as a string is — a job file's `true` is not 1."""
+    with pytest.raises(TypeError, match=message):
+        make()
+
+
+def test_extreme_scales_give_the_models_own_modes_or_a_reason() -> None:
+    """K of order 1e154 read both elastic modes as rigid (issue 29); entries double precision
+    cannot hold in full are refused naming the entry, as by the command line."""
+    k0 = np.array([[1.0, -0.5], [-0.5, 1.0]])
+    reference = nnm.Model(TWO, k0).modes().frequencies
+    modes = nnm.Model(TWO, 1e154 * k0).modes()
+    assert not modes.rigid.any()
+    np.testing.assert_allclose(modes.frequencies, 1e77 * reference, rtol=1e-12)
+    with pytest.raises(ValueError, match=r"^mass matrix entry \(0, 0\) = 1.000e-310 is subnormal \(below 2.2e-308\) and has lost digits in double precision: rescale the model's units$"):
+        nnm.Model(1e-310 * TWO, k0)
+    with pytest.raises(ValueError, match=r"^stiffness matrix entry \(0, 0\) = 1.000e300 is beyond 1.3e154"):
+        nnm.Model(TWO, 1e300 * k0)

@@ -19,11 +19,25 @@ def _is_bool(value: Any) -> bool:
     return isinstance(value, (bool, np.bool_))
 
 
-def integer(name: str, value: Any) -> int:
-    """``value`` as an int: a ``TypeError`` unless it is an integer (numpy's too)."""
+def _int(name: str, value: Any) -> int:
+    """``value`` as an int of any size: a ``TypeError`` unless it is an integer."""
     if _is_bool(value) or not hasattr(type(value), "__index__"):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
     return operator.index(value)
+
+
+# A job file's integers are 64-bit (TOML): the library takes none beyond them.
+_INTEGER_RANGE = range(-(2**63), 2**63)
+
+
+def integer(name: str, value: Any) -> int:
+    """``value`` as an int: a ``TypeError`` unless it is an integer (numpy's too), a
+    ``ValueError`` beyond a job file's 64-bit integers (the native module's conversion would
+    raise ``OverflowError``)."""
+    i = _int(name, value)
+    if i not in _INTEGER_RANGE:
+        raise ValueError(f"`{name}` = {i} is out of range")  # as a keyword setting's
+    return i
 
 
 def real(name: str, value: Any) -> float:
@@ -39,10 +53,23 @@ def real(name: str, value: Any) -> float:
         raise ValueError(f"{name} must be a finite real number, got an integer beyond the float range") from None
 
 
+def holds_bool(values: Any) -> bool:
+    """Whether a (nested) list or tuple of numbers holds a boolean, or ``values`` is a numpy
+    boolean array: numpy reads ``[True, 0.5]`` as ``[1.0, 0.5]``, which would pass a dtype
+    check."""
+    if _is_bool(values):
+        return True
+    if isinstance(values, np.ndarray):
+        return values.dtype.kind == "b"
+    if isinstance(values, (list, tuple)):
+        return any(holds_bool(v) for v in values)
+    return False
+
+
 def index(name: str, value: Any, count: int, message: str) -> int:
     """``value`` as an index into ``count`` items, Python-style (``-1`` is the last), made
     non-negative; out of range a ``ValueError`` with ``message`` (formatted with ``value``)."""
-    i = integer(name, value)
+    i = _int(name, value)
     if not -count <= i < count:
         raise ValueError(message.format(i))
     return i + count if i < 0 else i
@@ -68,7 +95,7 @@ def samples(value: Any, dofs: int) -> int:
     time value — ``32 n + 72`` bytes a sample. Half the physical memory leaves the rest for
     the process and the machine; beyond it the allocation would fail (aborting the
     interpreter) or swap for hours, long before the integration could finish."""
-    count = integer("samples", value)
+    count = _int("samples", value)
     if count < 1:
         raise ValueError(f"samples must be at least 1, got {count}")
     per_sample = 32 * dofs + 72

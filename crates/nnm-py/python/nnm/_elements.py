@@ -49,9 +49,7 @@ class Polynomial:
     exponent: int
 
     def _spec(self) -> tuple:
-        exponent = _checks.integer("exponent", self.exponent)
-        if not -(2**63) <= exponent < 2**63:  # beyond what a job file can write: no library message
-            raise ValueError(f"`exponent` = {exponent} is out of range")
+        exponent = _checks.integer("exponent", self.exponent)  # 64 bits, as in a job file
         return ("polynomial", _dofs(self.dofs), _checks.real("coefficient", self.coefficient), exponent)
 
 
@@ -78,8 +76,14 @@ def _terms(name: str, terms: Any, order: int) -> tuple[np.ndarray, np.ndarray]:
         )
     if subs.shape[0] != values.shape[0]:
         raise ValueError(f"{name} terms: {subs.shape[0]} index rows but {values.shape[0]} values")
+    if subs.dtype.kind == "O" and all(
+        not _checks.holds_bool(v) and hasattr(type(v), "__index__") for v in subs.flat
+    ):  # Python ints beyond 64 bits: numpy keeps them as objects
+        raise ValueError(f"{name} term index {max(subs.flat)} is out of range")
     if subs.dtype.kind not in "iu":
         raise TypeError(f"{name} term indices must be integers, got dtype {subs.dtype}")
+    if subs.dtype.kind == "u" and subs.size and subs.max() >= 2**63:  # would wrap to negative
+        raise ValueError(f"{name} term index {subs.max()} is out of range")
     if (subs < 0).any():
         raise ValueError(f"{name} term indices are 0-based and non-negative")
     return np.ascontiguousarray(subs, dtype=np.int64), np.ascontiguousarray(values)
@@ -116,6 +120,8 @@ def _matrix(name: str, a: Any) -> Any:
         coo = a.tocoo()
         if np.iscomplexobj(coo.data):
             raise TypeError(f"{name} matrix must be real, got dtype {coo.data.dtype}")
+        if coo.data.dtype.kind not in "iuf":  # booleans are not numbers (a job file's true is not 1)
+            raise TypeError(f"{name} matrix must be real numbers, got dtype {coo.data.dtype}")
         rows, cols = coo.shape
         return (
             int(rows),
@@ -125,8 +131,10 @@ def _matrix(name: str, a: Any) -> Any:
             np.ascontiguousarray(coo.data, dtype=np.float64),
         )
     array = np.asarray(a)
-    if array.dtype.kind not in "biuf":
+    if array.dtype.kind not in "iuf":  # booleans are not numbers (a job file's true is not 1)
         raise TypeError(f"{name} matrix must be real numbers, got dtype {array.dtype}")
+    if _checks.holds_bool(a):  # [[True, 0.5], ...] reads as float64
+        raise TypeError(f"{name} matrix must be real numbers, got bool")
     if array.ndim != 2:
         raise ValueError(f"{name} matrix must be 2-D, got shape {array.shape}")
     return np.ascontiguousarray(array, dtype=np.float64)

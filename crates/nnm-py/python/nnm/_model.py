@@ -203,14 +203,11 @@ def _damping_form(damping: Any) -> Any:
     if isinstance(damping, dict):
         if set(damping) == {"matrix"}:
             return _matrix("damping", damping["matrix"])
-        try:
-            return {
-                k: os.fspath(v) if isinstance(v, os.PathLike) else
-                [float(x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) else v
-                for k, v in damping.items()
-            }
-        except OverflowError:  # an int beyond the doubles (10**400)
-            raise ValueError("damping coefficients must be finite real numbers, got an integer beyond the float range") from None
+        return {
+            k: os.fspath(v) if isinstance(v, os.PathLike) else
+            [_checks.real(f"damping {k}", x) for x in v] if isinstance(v, (list, tuple, np.ndarray)) else v
+            for k, v in damping.items()
+        }
     return _matrix("damping", damping)
 
 
@@ -383,7 +380,7 @@ def bladed_disk(**parameters: Any) -> dict[str, Any]:
     modes are unlabelled, its pairs split)."""
     mistuning = parameters.get("blade_stiffness_mistuning")
     if mistuning is not None:
-        parameters["blade_stiffness_mistuning"] = [float(d) for d in mistuning]
+        parameters["blade_stiffness_mistuning"] = [_checks.real("blade_stiffness_mistuning", d) for d in mistuning]
     return parameters
 
 

@@ -62,7 +62,9 @@ class Force:
             if dofs is not None or amplitude is not None or engine_order is not None or sector_dof is not None:
                 raise TypeError("Force(vector=...) takes nothing else: the vector carries its own size")
             values = np.asarray(vector)
-            if values.dtype.kind not in "biuf" or values.ndim != 1:
+            if _checks.holds_bool(vector):  # [True, 0.5] reads as float64
+                raise TypeError("the force vector must be a 1-D sequence of real numbers, got bool")
+            if values.dtype.kind not in "iuf" or values.ndim != 1:
                 raise TypeError(f"the force vector must be a 1-D sequence of real numbers, got {values.dtype} of shape {values.shape}")
             spec = {"vector": [float(v) for v in values]}
         elif engine_order is not None:
