@@ -38,7 +38,7 @@ pub const RESPONSE_KEYS: [&str; 10] = [
 
 /// The settings a `[[response]]` table takes: the fields of `nnm::forced::ResponseSettings`
 /// as serde reads them, flattened groups included (a test holds the list to the struct).
-pub const RESPONSE_SETTINGS_KEYS: [&str; 13] = [
+pub const RESPONSE_SETTINGS_KEYS: [&str; 14] = [
     "tolerance",
     "initial_step",
     "min_step",
@@ -52,6 +52,7 @@ pub const RESPONSE_SETTINGS_KEYS: [&str; 13] = [
     "max_points",
     "half_period",
     "samples",
+    "formulation",
 ];
 
 /// The starting force amplitude of a curve in the force amplitude, relative to

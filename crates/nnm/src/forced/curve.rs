@@ -11,6 +11,7 @@ use crate::integrate::{
 };
 use crate::linalg;
 use crate::model::{ForcedSystem, MechanicalSystem};
+use crate::shooting::Formulation;
 
 use super::events::{ResponseEvent, ResponseEvents};
 use super::linear::LinearOperators;
@@ -46,7 +47,14 @@ pub struct ResponseSettings {
     /// harmonic is exact for motions without harmonics above the 30th, and each peak is
     /// refined between samples, docs/method.md eq. (87)).
     pub samples: usize,
+    /// Dense Jacobian and monodromy, or matrix-free Newton–Krylov with Arnoldi multipliers
+    /// (docs/method.md eq. (102a)); default: matrix-free above [`MATRIX_FREE_DOFS`] dofs when
+    /// the implicit integrator solves sparse stage systems, dense otherwise.
+    pub formulation: Formulation,
 }
+
+/// Above this many dofs, [`Formulation::Auto`] shoots forced responses matrix-free.
+pub const MATRIX_FREE_DOFS: usize = 64;
 
 impl Default for ResponseSettings {
     fn default() -> Self {
@@ -61,6 +69,7 @@ impl Default for ResponseSettings {
             max_points: 2000,
             half_period: true,
             samples: 32,
+            formulation: Formulation::Auto,
         }
     }
 }
@@ -311,7 +320,14 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
     );
     let half_period =
         settings.half_period && crate::symmetry::is_odd(system.system(), scales.displacement);
-    let mut problem = problem.with_half_period(half_period);
+    let matrix_free = match settings.formulation {
+        Formulation::MatrixFree => true,
+        Formulation::Dense => false,
+        Formulation::Auto => system.dofs() > MATRIX_FREE_DOFS,
+    };
+    let mut problem = problem
+        .with_half_period(half_period)
+        .with_matrix_free(matrix_free);
     let z0 = linear.response(drive.frequency, drive.amplitude);
     problem
         .adapt(&z0, from)
@@ -404,7 +420,7 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         output_dofs,
         phase_dof,
         half_period,
-        stats: problem.stats,
+        stats: problem.work(),
         continuation: continuation_stats,
     })
 }

@@ -15,14 +15,16 @@ pub mod damping;
 mod events;
 mod force;
 mod linear;
+mod matrix_free;
 mod problem;
 
 pub use curve::{
-    ResponseCurve, ResponseError, ResponseItem, ResponseSettings, ResponseStop, check_sweep,
-    forced_response,
+    MATRIX_FREE_DOFS, ResponseCurve, ResponseError, ResponseItem, ResponseSettings, ResponseStop,
+    check_sweep, forced_response,
 };
 pub use events::{ResponseEvent, ResponseEventKind, ResponseEvents};
 pub use force::{Force, ForceError};
+pub use matrix_free::ForcedOperator;
 pub use problem::{
     ForcedError, ForcedEvaluation, ForcedShooting, ForcedStats, ResponsePoint, Scales, Sweep,
 };

@@ -14,9 +14,13 @@
 //! problem's [`ContinuationProblem::amplitude`] is 1): a resonance peak and the flanks of the
 //! curve are resolved alike on the plot a user looks at, whatever the units of the model.
 
+use std::sync::Arc;
+
+use super::matrix_free::ForcedOperator;
 use crate::continuation::{ContinuationProblem, Detail, Linearization, Solution};
 use crate::integrate::IntegrationError;
-use crate::integrate::forced::{Drive, ForcedIntegrator, sample, sample_half_wave};
+use crate::integrate::LinearizedFlow;
+use crate::integrate::forced::{Drive, ForcedFlow, ForcedIntegrator, sample, sample_half_wave};
 use crate::linalg::{self, Complex, Mat};
 use crate::model::{ForcedSystem, MechanicalSystem};
 
@@ -83,6 +87,9 @@ pub struct ForcedEvaluation {
     /// period; over half of one, its square root `−Φ(π)`), unscaled (empty on a chord
     /// evaluation).
     pub monodromy: Mat<f64>,
+    /// The Jacobian as products (matrix-free shooting, eq. (102a)), in place of `jacobian`
+    /// and `monodromy` (then empty).
+    pub operator: Option<Arc<ForcedOperator>>,
     /// Whether `jacobian` is the Jacobian at `z0` (else a chord: the last exact one).
     pub exact: bool,
     /// Integration steps of the period.
@@ -105,7 +112,12 @@ impl Linearization for ForcedEvaluation {
     /// The bordered system `[J; bᵀ]` in least squares by QR (square without rigid-body
     /// modes; with them, consistent and overdetermined by one row a mode).
     fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
-        crate::continuation::solve_bordered_dense(&self.jacobian, border, rhs, border_rhs)
+        match &self.operator {
+            Some(operator) => operator.solve_bordered(border, rhs, border_rhs),
+            None => {
+                crate::continuation::solve_bordered_dense(&self.jacobian, border, rhs, border_rhs)
+            }
+        }
     }
 }
 
@@ -179,6 +191,8 @@ pub struct ForcedStats {
     pub integrations: usize,
     /// Their work, summed.
     pub integration: crate::integrate::IntegrationStats,
+    /// Products with the recorded monodromy (matrix-free shooting: GMRES and Arnoldi).
+    pub krylov_products: usize,
 }
 
 /// The scales of the unknowns (module notes).
@@ -210,8 +224,14 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     half_period: bool,
     /// The continuation's tolerance: below it, an evaluation is made exact.
     tolerance: f64,
-    /// The last exact Jacobian, the chord of the corrector iterations (eq. (99a)).
-    chord: Option<Mat<f64>>,
+    /// Newton corrections by GMRES and multipliers by Arnoldi on the recorded flow (eq.
+    /// (102a)), when the integrator records it.
+    matrix_free: bool,
+    /// The last exact Jacobian (dense, or its operator), the chord of the corrector
+    /// iterations (eq. (99a)).
+    chord: Option<(Mat<f64>, Option<Arc<ForcedOperator>>)>,
+    /// Products with the recorded monodromy so far, shared with the operators.
+    products: Arc<std::sync::atomic::AtomicUsize>,
     /// The last iterate's relative residual (`None` before the first): a chord step that
     /// does not cut it fourfold gets an exact evaluation.
     chord_residual: Option<f64>,
@@ -246,6 +266,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             neutral_multipliers: 0,
             half_period: false,
             tolerance,
+            matrix_free: false,
+            products: Arc::default(),
             chord: None,
             chord_residual: None,
             stats: ForcedStats::default(),
@@ -291,6 +313,27 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     pub fn with_half_period(mut self, half_period: bool) -> Self {
         self.half_period = half_period;
         self
+    }
+
+    /// Solves the corrections by GMRES and takes the multipliers by Arnoldi on the recorded
+    /// flow (eq. (102a)) when the integrator records it and no rigid-body offset is held
+    /// (those rows make the system non-square); dense otherwise.
+    pub fn with_matrix_free(mut self, matrix_free: bool) -> Self {
+        self.matrix_free = matrix_free;
+        self
+    }
+
+    /// Whether the corrections are matrix-free (see [`Self::with_matrix_free`]).
+    pub fn matrix_free(&self) -> bool {
+        self.matrix_free && self.rigid_pins.is_empty()
+    }
+
+    /// The work so far, the matrix-free products included.
+    pub fn work(&self) -> ForcedStats {
+        ForcedStats {
+            krylov_products: self.products.load(std::sync::atomic::Ordering::Relaxed),
+            ..self.stats
+        }
     }
 
     /// Whether it shoots over half the period.
@@ -444,6 +487,13 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         let n = n2 / 2;
         let (z0, p) = self.state(u);
         let drive = self.sweep.drive(p);
+        if self.matrix_free() {
+            let span = self.span();
+            if let Some(linearized) = self.integrator.flow_linearized(&z0, drive, span) {
+                let (flow, linearization) = linearized?;
+                return Ok(self.matrix_free_evaluation(u, z0, drive, flow, linearization));
+            }
+        }
         let flow = self.integrator.flow(&z0, drive, self.span(), true)?;
         self.stats.evaluations += 1;
         self.stats.integrations += 1;
@@ -467,7 +517,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
                 (phi(i, j) - identity) * self.scale_of(j) / self.scale_of(i)
             }
         });
-        self.chord = Some(jacobian.clone());
+        self.chord = Some((jacobian.clone(), None));
         self.chord_residual = Some(relative_residual);
         Ok(ForcedEvaluation {
             z0,
@@ -476,9 +526,64 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
             relative_residual,
             jacobian,
             monodromy: Mat::from_fn(n2, n2, phi),
+            operator: None,
             exact: true,
             steps: flow.steps.len(),
         })
+    }
+
+    /// The exact evaluation of matrix-free shooting: the residual and the parameter's
+    /// column from an integration that records its linearised flow, the Jacobian as its
+    /// products (eq. (102a)).
+    fn matrix_free_evaluation(
+        &mut self,
+        u: &[f64],
+        z0: Vec<f64>,
+        drive: Drive,
+        flow: ForcedFlow,
+        linearization: Arc<dyn LinearizedFlow>,
+    ) -> ForcedEvaluation {
+        let n2 = 2 * self.system.dofs();
+        self.stats.evaluations += 1;
+        self.stats.integrations += 1;
+        self.stats.integration += flow.stats;
+        let rows = self.residual_rows(u, &z0, &flow.z);
+        let relative_residual = self.relative(u, &rows);
+        let flip = self.flip();
+        // `flow.sensitivity` holds `[∂z/∂Ω ∂z/∂a]`.
+        let parameter = match self.sweep {
+            Sweep::Frequency { .. } => 0,
+            Sweep::Amplitude { .. } => 1,
+        };
+        let scales: Vec<f64> = (0..n2).map(|i| self.scale_of(i)).collect();
+        let parameter_column = (0..n2)
+            .map(|i| {
+                flip * flow.sensitivity[parameter * n2 + i] * self.scales.parameter / scales[i]
+            })
+            .collect();
+        let size = linalg::norm(&u[..n2]);
+        let operator = Arc::new(ForcedOperator::new(
+            linearization,
+            flip,
+            scales,
+            parameter_column,
+            self.tolerance,
+            size,
+            self.products.clone(),
+        ));
+        self.chord = Some((Mat::zeros(0, 0), Some(operator.clone())));
+        self.chord_residual = Some(relative_residual);
+        ForcedEvaluation {
+            z0,
+            drive,
+            rows,
+            relative_residual,
+            jacobian: Mat::zeros(0, 0),
+            monodromy: Mat::zeros(0, 0),
+            operator: Some(operator),
+            exact: true,
+            steps: flow.steps.len(),
+        }
     }
 }
 
@@ -520,13 +625,15 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
             return self.exact_evaluation(u);
         }
         self.chord_residual = Some(relative_residual);
+        let (jacobian, operator) = chord;
         Ok(ForcedEvaluation {
             z0,
             drive,
             rows,
             relative_residual,
-            jacobian: chord,
+            jacobian,
             monodromy: Mat::zeros(0, 0),
+            operator,
             exact: false,
             steps: flow.steps.len(),
         })
@@ -540,7 +647,10 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
         evaluation: &ForcedEvaluation,
         detail: Detail,
     ) -> Result<ResponsePoint, ForcedError> {
-        let mut multipliers = linalg::eigenvalues(evaluation.monodromy.as_ref())?;
+        let mut multipliers = match &evaluation.operator {
+            Some(operator) => operator.shot_map_eigenvalues()?,
+            None => linalg::eigenvalues(evaluation.monodromy.as_ref())?,
+        };
         if self.half_period {
             // The monodromy is the half map's derivative squared (eq. (101a)).
             multipliers = multipliers

@@ -52,6 +52,7 @@ mod tableaux;
 mod tangents;
 
 pub use recorded::CollocationLinearization;
+pub(in crate::integrate) use recorded::{RecordedStep, VariationalBuffers, variational_step};
 pub use split::SPLIT_DOFS;
 pub use tableaux::{Collocation, GAUSS4, GAUSS6, RADAU5};
 
@@ -62,7 +63,6 @@ use crate::integrate::{
 };
 use crate::model::{Block, ExplicitForm, MechanicalSystem, SparseMatrix};
 pub(in crate::integrate) use low_rank::LinearStages;
-use recorded::{RecordedStep, VariationalBuffers, variational_step};
 use split::SplitStages;
 pub(in crate::integrate) use stages::{SparseStages, StageLu, StageMethod};
 pub(in crate::integrate) use step_count::low_pass;
@@ -320,6 +320,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                     &self.bbar,
                     h,
                     (&lu, &tangents),
+                    None,
                     phi,
                     k,
                     &mut cache.buffers,
@@ -452,6 +453,7 @@ impl<S: MechanicalSystem + ?Sized> Integrator for GaussLegendre<'_, S> {
             bbar: self.bbar.clone(),
             dofs: self.form.dofs(),
             steps: record,
+            damping: None,
         };
         Ok((flow, Arc::new(linearization)))
     }

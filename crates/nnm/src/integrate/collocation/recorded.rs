@@ -2,28 +2,35 @@
 //! linearisation built on it (eq. (72)): what a step keeps so that `Φ D` can be applied to any
 //! block `D` after the motion is integrated.
 
+use std::sync::Arc;
+
 use super::stages::StageLu;
 use super::tableaux::Collocation;
 use super::tangents::StageTangents;
 use crate::integrate::LinearizedFlow;
+use crate::model::SparseMatrix;
 
-/// The work buffers of [`variational_step`]: `s n × k`, `n × k` and `k`.
+/// The work buffers of [`variational_step`]: `s n × k`, `n × k`, `k` and `n × k`.
 #[derive(Default)]
-pub(super) struct VariationalBuffers {
+pub(in crate::integrate) struct VariationalBuffers {
     rhs: Vec<f64>,
     directions: Vec<f64>,
     row: Vec<f64>,
+    damped: Vec<f64>,
 }
 
 /// One step of the variational equations (eq. (32c)) for `k` directions `phi` (`2n × k`,
-/// column-major, in place): `J dW = -[K_t(X_i)(Φ_x + h c_i Φ_v)]_i` with the exact stage
-/// Jacobian `J` at the converged stages (factorised in `lu`) and the tangents it was built
-/// from, then `Φ_x += h Φ_v + h² Σ b̄_j dW_j`, `Φ_v += h Σ b_j dW_j`.
-pub(super) fn variational_step(
+/// column-major, in place): `J dW = -[K_t(X_i)(Φ_x + h c_i Φ_v) + C Φ_v]_i` with the exact
+/// stage Jacobian `J` at the converged stages (factorised in `lu`) and the tangents it was
+/// built from, then `Φ_x += h Φ_v + h² Σ b̄_j dW_j`, `Φ_v += h Σ b_j dW_j`. The damping `C`
+/// is a forced motion's (eq. (97), in time rather than phase); free motions have none.
+#[allow(clippy::too_many_arguments)]
+pub(in crate::integrate) fn variational_step(
     method: &Collocation,
     bbar: &[f64],
     h: f64,
     (lu, tangents): (&StageLu, &StageTangents),
+    damping: Option<&SparseMatrix>,
     phi: &mut [f64],
     k: usize,
     buffers: &mut VariationalBuffers,
@@ -36,9 +43,16 @@ pub(super) fn variational_step(
         rhs,
         directions,
         row,
+        damped,
     } = buffers;
     rhs.resize(m * k, 0.0);
     directions.resize(n * k, 0.0);
+    if let Some(damping) = damping {
+        // `C Φ_v`: the same in every stage's equations.
+        damped.clear();
+        damped.resize(n * k, 0.0);
+        damping.apply_add(1.0, &phi[n..], n2, k, damped, n);
+    }
     for i in 0..s {
         let hc = h * method.c[i];
         // Φ_x + h c_i Φ_v for every column, stored direction-fastest.
@@ -59,6 +73,14 @@ pub(super) fn variational_step(
                 rhs[col * m + i * n + r] = -value;
             });
         }
+        if damping.is_some() {
+            for col in 0..k {
+                rhs[col * m + i * n..col * m + (i + 1) * n]
+                    .iter_mut()
+                    .zip(&damped[col * n..(col + 1) * n])
+                    .for_each(|(r, d)| *r -= d);
+            }
+        }
     }
     lu.solve_exact(rhs, k, tangents);
     for col in 0..k {
@@ -75,10 +97,10 @@ pub(super) fn variational_step(
 
 /// What a step keeps for later products with the monodromy: its size, its factorised stage
 /// Jacobian and the tangents `K_t(X_i)` it was built from.
-pub(super) struct RecordedStep {
-    pub(super) h: f64,
-    pub(super) lu: StageLu,
-    pub(super) tangents: StageTangents,
+pub(in crate::integrate) struct RecordedStep {
+    pub(in crate::integrate) h: f64,
+    pub(in crate::integrate) lu: StageLu,
+    pub(in crate::integrate) tangents: StageTangents,
 }
 
 /// The linearised discrete flow of one collocation integration (docs/method.md eq. (72)):
@@ -87,10 +109,12 @@ pub(super) struct RecordedStep {
 /// again or factorising anything. Memory: per step one sparse LU of the `s n × s n` stage
 /// system and `s` tangents, O(n · steps) for a banded model.
 pub struct CollocationLinearization {
-    pub(super) method: &'static Collocation,
-    pub(super) bbar: Vec<f64>,
-    pub(super) dofs: usize,
-    pub(super) steps: Vec<RecordedStep>,
+    pub(in crate::integrate) method: &'static Collocation,
+    pub(in crate::integrate) bbar: Vec<f64>,
+    pub(in crate::integrate) dofs: usize,
+    pub(in crate::integrate) steps: Vec<RecordedStep>,
+    /// A forced motion's damping `C` (eq. (97)); `None` for free motions.
+    pub(in crate::integrate) damping: Option<Arc<SparseMatrix>>,
 }
 
 impl LinearizedFlow for CollocationLinearization {
@@ -110,6 +134,7 @@ impl LinearizedFlow for CollocationLinearization {
                 &self.bbar,
                 step.h,
                 (&step.lu, &step.tangents),
+                self.damping.as_deref(),
                 out,
                 columns,
                 &mut buffers,

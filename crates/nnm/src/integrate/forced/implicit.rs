@@ -35,11 +35,12 @@
 
 use std::sync::Arc;
 
-use super::{Drive, ForcedFlow, ForcedIntegrator, check_forced_request, phase_field};
+use super::{Drive, ForcedFlow, ForcedIntegrator, RecordedFlow, check_forced_request, phase_field};
 use crate::integrate::collocation::{
-    Collocation, LinearStages, SparseStages, StageLu, StageMethod, StageTangents, low_pass,
+    Collocation, CollocationLinearization, LinearStages, RecordedStep, SparseStages, StageLu,
+    StageMethod, StageTangents, VariationalBuffers, low_pass, variational_step,
 };
-use crate::integrate::{IntegrationError, IntegrationStats, Tolerances};
+use crate::integrate::{IntegrationError, IntegrationStats, LinearizedFlow, Tolerances};
 use crate::linalg::{DenseLu, Mat};
 use crate::model::{ForcedSystem, Matrix, MechanicalSystem, SparseMatrix, dense_tangent};
 
@@ -47,6 +48,11 @@ use crate::model::{ForcedSystem, Matrix, MechanicalSystem, SparseMatrix, dense_t
 const MAX_STAGE_ITERATIONS: usize = 20;
 /// The stage iteration stops when the update is this small relative to the stage values.
 const STAGE_TOLERANCE: f64 = 1e-13;
+/// A stalled stage iteration has met its round-off floor when its update is below these
+/// fractions of the stage values: on a fresh factorisation (the floor then recorded), and
+/// at least, on a stale one (see the convergence test of the stage iteration).
+const FRESH_FLOOR: f64 = 1e-4;
+const STALE_FLOOR: f64 = 1e-7;
 /// Steps a period before the first estimate, and the bounds of the estimate.
 const INITIAL_STEPS: usize = 64;
 const MIN_STEPS: usize = 8;
@@ -60,6 +66,16 @@ const CUTOFF_HARMONICS: f64 = 16.0;
 const REUSE_FREQUENCY: f64 = 0.02;
 const REUSE_SIZE: f64 = 1.25;
 const REUSE: usize = 8;
+
+/// What an integration carries besides the motion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sensitivities {
+    None,
+    /// `[Φ ∂z/∂Ω ∂z/∂a]`.
+    Full,
+    /// `[∂z/∂Ω ∂z/∂a]`, and every step recorded for products with `Φ` (eq. (72)).
+    Recorded,
+}
 
 /// Implicit collocation of a forced system with equal steps.
 pub struct ForcedCollocation<'s, 'a, S: MechanicalSystem + ?Sized> {
@@ -80,6 +96,9 @@ pub struct ForcedCollocation<'s, 'a, S: MechanicalSystem + ?Sized> {
     coefficients: StageMethod,
     /// `bᵀA`.
     bta: Vec<f64>,
+    /// `E_ij = ℓ_j(1 + c_i)`, the Lagrange basis of the nodes at the next step's nodes
+    /// (row-major `s × s`): the last step's stage values extrapolated.
+    extrapolation: Vec<f64>,
     ws: Workspace,
 }
 
@@ -100,8 +119,9 @@ struct Workspace {
     tangents: Option<StageTangents>,
     /// The linear part of a low-rank stage system at the current step (eq. (32e)).
     linear: Option<Arc<LinearStages>>,
-    /// `W`, `s × n`, of the last step (the next step's first iterate).
+    /// `W`, `s × n`, of the last step (extrapolated, the next step's first iterate).
     w: Vec<f64>,
+    extrapolated: Vec<f64>,
     x: Vec<f64>,
     v: Vec<f64>,
     residual: Vec<f64>,
@@ -109,15 +129,16 @@ struct Workspace {
     /// A dense tangent's pattern values or identity block.
     values: Vec<f64>,
     rhs: Vec<f64>,
-    /// `δx0 + (h c_i/Ω) δv0` of every sensitivity column, direction-fastest (`n × cols`).
+    /// `δx0 + (h c_i/Ω) δv0` of one parameter column.
     displacement: Vec<f64>,
-    /// One row of a tangent–block product.
-    row: Vec<f64>,
     /// `−(X_i − x0)/Ω` of one stage, and its product with the tangent.
     moved: Vec<f64>,
     product: Vec<f64>,
-    /// `C δv0` of every sensitivity column (`n × cols`).
+    /// `C δv0` of the parameter columns (`n × 2`).
     damped: Vec<f64>,
+    /// The relative update at which freshly factorised stage systems of this integration
+    /// stalled: their round-off floor (0 until one has).
+    floor: f64,
 }
 
 impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
@@ -132,6 +153,16 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         let coefficients = StageMethod::new(method);
         let bta = (0..s)
             .map(|j| (0..s).map(|l| method.b[l] * method.a[l][j]).sum())
+            .collect();
+        let c = method.c;
+        let extrapolation = (0..s * s)
+            .map(|k| {
+                let (i, j) = (k / s, k % s);
+                (0..s)
+                    .filter(|&l| l != j)
+                    .map(|l| (1.0 + c[i] - c[l]) / (c[j] - c[l]))
+                    .product()
+            })
             .collect();
         let mass = crate::model::mass_entries(system.system().mass());
         let column_major = |m: Mat<f64>| {
@@ -159,6 +190,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             stages,
             coefficients,
             bta,
+            extrapolation,
             ws: Workspace::default(),
         }
     }
@@ -257,6 +289,23 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             phase_field(self.system, z, tau, drive, &mut start);
             stats.rhs_evaluations += 1;
             ws.w = (0..s).flat_map(|_| start[n..].iter().copied()).collect();
+        } else {
+            // The last step's collocation polynomial of `W`, extrapolated to this step's
+            // nodes: an error of order `h^s` to start from instead of order `h`, a Newton
+            // iteration or two less a step.
+            ws.extrapolated.clear();
+            ws.extrapolated.resize(s * n, 0.0);
+            for i in 0..s {
+                for j in 0..s {
+                    let e = self.extrapolation[i * s + j];
+                    let (target, source) = (
+                        &mut ws.extrapolated[i * n..(i + 1) * n],
+                        &ws.w[j * n..(j + 1) * n],
+                    );
+                    target.iter_mut().zip(source).for_each(|(t, w)| *t += e * w);
+                }
+            }
+            std::mem::swap(&mut ws.w, &mut ws.extrapolated);
         }
         let mut previous_update = f64::INFINITY;
         let mut fresh = false;
@@ -302,15 +351,24 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 ws.lu = None;
                 return Err(IntegrationError::NotFinite { t: tau / omega });
             }
-            // Converged: the update is below the tolerance, or it stopped shrinking at a
-            // small size — the round-off floor of a stiff stage system lies above
-            // `STAGE_TOLERANCE` (1e-8 of the largest stage value on the 19-element ECL beam,
-            // in the stiff modes' components, which the step scales down by `h²/Ω`), whether
-            // the factorisation is this step's or the last one's (renewing it there doubled
-            // the factorisations of the beam's forced curve and changed its folds by 4e-11).
-            let floor = if fresh { 1e-6 } else { 1e-7 };
-            let stalled = update > 0.25 * previous_update && update <= floor * size;
-            if update <= STAGE_TOLERANCE * size || size == 0.0 || stalled {
+            // Converged: the update is below the tolerance, or it stopped shrinking at the
+            // round-off floor of the stage system, which lies above `STAGE_TOLERANCE` in the
+            // stiff modes' components the step scales down by `h²/Ω` (1e-8 of the largest
+            // stage value on the 19-element ECL beam, 2e-6 on the 1,000-element one: its
+            // condition grows like `(ω_max h/Ω)²`). A freshly factorised system that stalls
+            // near convergence has met that floor, and records it; a stale one that stalls
+            // below twice it (or 1e-7) has reached it too (renewing it there doubled the
+            // factorisations of the beam's forced curve and changed its folds by 4e-11).
+            let stalled = update > 0.25 * previous_update;
+            let at_floor = if fresh {
+                stalled && update <= FRESH_FLOOR * size
+            } else {
+                stalled && update <= (2.0 * ws.floor).max(STALE_FLOOR) * size
+            };
+            if fresh && at_floor {
+                ws.floor = ws.floor.max(update / size);
+            }
+            if update <= STAGE_TOLERANCE * size || size == 0.0 || at_floor {
                 self.stage_states(x0, v0, h, omega, ws);
                 if exact {
                     self.factorise(h, omega, ws, stats)?;
@@ -333,7 +391,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
     }
 
     /// `steps` equal steps from `z0` at phase `tau0` over `span`, with the sensitivities
-    /// `[Φ ∂z/∂Ω ∂z/∂a]` when asked.
+    /// `sensitivities` asks for.
+    #[allow(clippy::too_many_arguments)]
     fn integrate(
         &mut self,
         z0: &[f64],
@@ -341,19 +400,29 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         span: f64,
         steps: usize,
         drive: Drive,
-        sensitivities: bool,
-    ) -> Result<ForcedFlow, IntegrationError> {
+        sensitivities: Sensitivities,
+    ) -> Result<(ForcedFlow, Option<Vec<RecordedStep>>), IntegrationError> {
         let n = self.system.dofs();
         let n2 = 2 * n;
         check_forced_request(z0, n2, drive)?;
         let s = self.method.c.len();
         let omega = drive.frequency;
         let h = span / steps as f64;
-        let cols = if sensitivities { n2 + 2 } else { 0 };
-        let mut phi = vec![0.0; n2 * cols];
-        for c in 0..cols.min(n2) {
+        // `Φ`'s columns (the identity at the start), then `∂z/∂Ω` and `∂z/∂a` (zero).
+        let directions = match sensitivities {
+            Sensitivities::Full => n2,
+            _ => 0,
+        };
+        let parameters = if sensitivities == Sensitivities::None {
+            0
+        } else {
+            2
+        };
+        let mut phi = vec![0.0; n2 * (directions + parameters)];
+        for c in 0..directions {
             phi[c * n2 + c] = 1.0;
         }
+        let mut record = (sensitivities == Sensitivities::Recorded).then(Vec::new);
         let mut stats = IntegrationStats::default();
         let mut z = z0.to_vec();
         let mut ws = std::mem::take(&mut self.ws);
@@ -362,12 +431,13 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         // integration before.
         ws.w.clear();
         ws.lu = None;
-        ws.rhs.resize(s * n * cols, 0.0);
-        ws.displacement.resize(n * cols, 0.0);
+        ws.floor = 0.0;
+        let mut buffers = VariationalBuffers::default();
         let mut result = Ok(());
         for step in 0..steps {
             let tau = tau0 + step as f64 * h;
-            if let Err(e) = self.stages(&z, tau, h, drive, cols > 0, &mut ws, &mut stats) {
+            let exact = parameters > 0;
+            if let Err(e) = self.stages(&z, tau, h, drive, exact, &mut ws, &mut stats) {
                 result = Err(e);
                 break;
             }
@@ -382,8 +452,32 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 z1[n + p] = v0[p] + h * dv;
                 z1[p] = x0[p] + h / omega * v0[p] + h * h / omega * dx;
             }
-            if cols > 0 {
-                self.propagate(&mut phi, cols, &z, &z1, tau, h, omega, &mut ws);
+            if exact {
+                let (state, parameter) = phi.split_at_mut(n2 * directions);
+                self.propagate_parameters(parameter, &z, &z1, tau, h, omega, &mut ws);
+                let lu = ws.lu.as_ref().expect("an exact factorisation");
+                let tangents = ws.tangents.take().expect("its tangents");
+                if directions > 0 {
+                    // In time, the direction columns follow the free motion's variational
+                    // step with the step `h/Ω` and the damping (eq. (97)).
+                    variational_step(
+                        self.method,
+                        &self.bta,
+                        h / omega,
+                        (lu, &tangents),
+                        Some(self.system.damping()),
+                        state,
+                        directions,
+                        &mut buffers,
+                    );
+                }
+                if let Some(record) = &mut record {
+                    record.push(RecordedStep {
+                        h: h / omega,
+                        lu: lu.clone(),
+                        tangents,
+                    });
+                }
             }
             z = z1;
             stats.steps += 1;
@@ -393,21 +487,22 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         ws.lu = None;
         self.ws = ws;
         result?;
-        Ok(ForcedFlow {
+        let flow = ForcedFlow {
             z,
             sensitivity: phi,
             steps: vec![h; steps],
             stats,
-        })
+        };
+        Ok((flow, record))
     }
 
-    /// Advances the sensitivities `phi` (`2n × cols`, column-major) over one step from `z`
-    /// to `z1` by eq. (97), with the exact Jacobian factorised at the step's stages.
+    /// Advances the parameter sensitivities `[∂z/∂Ω ∂z/∂a]` (`2n × 2`, column-major) over
+    /// one step from `z` to `z1` by eq. (97), with the exact Jacobian factorised at the
+    /// step's stages.
     #[allow(clippy::too_many_arguments)]
-    fn propagate(
+    fn propagate_parameters(
         &self,
         phi: &mut [f64],
-        cols: usize,
         z: &[f64],
         z1: &[f64],
         tau: f64,
@@ -415,11 +510,11 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         omega: f64,
         ws: &mut Workspace,
     ) {
+        const COLUMNS: usize = 2;
         let n = self.system.dofs();
         let (n2, s) = (2 * n, self.method.c.len());
         let size = s * n;
         let x0 = &z[..n];
-        let (omega_column, amplitude_column) = (n2, n2 + 1);
         let Workspace {
             lu,
             tangents,
@@ -428,7 +523,6 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             force,
             rhs,
             displacement,
-            row,
             moved,
             product,
             damped,
@@ -437,38 +531,36 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         let tangents = tangents
             .as_ref()
             .expect("the tangents of an exact factorisation at the converged stages");
+        rhs.resize(size * COLUMNS, 0.0);
+        displacement.resize(n, 0.0);
         product.resize(n, 0.0);
-        // `C δv0` of every column: the same in every stage's equations.
+        // `C δv0` of both columns: the same in every stage's equations.
         damped.clear();
-        damped.resize(n * cols, 0.0);
+        damped.resize(n * COLUMNS, 0.0);
         self.system
             .damping()
-            .apply_add(1.0, &phi[n..], n2, cols, damped, n);
+            .apply_add(1.0, &phi[n..], n2, COLUMNS, damped, n);
         for i in 0..s {
-            // `K_t(X_i)(δx0 + (h c_i/Ω) δv0)` of every column.
             let ratio = h * self.method.c[i] / omega;
-            for c in 0..cols {
+            for c in 0..COLUMNS {
+                // `K_t(X_i)(δx0 + (h c_i/Ω) δv0) + C δv0`.
                 let column = &phi[c * n2..(c + 1) * n2];
                 for p in 0..n {
-                    displacement[p * cols + c] = column[p] + ratio * column[n + p];
+                    displacement[p] = column[p] + ratio * column[n + p];
                 }
-            }
-            tangents.apply_block(i, displacement, cols, row, |r, c, value| {
-                rhs[c * size + i * n + r] = value;
-            });
-            for c in 0..cols {
                 let block = &mut rhs[c * size + i * n..c * size + (i + 1) * n];
+                tangents.apply(i, displacement, block);
                 block
                     .iter_mut()
                     .zip(&damped[c * n..(c + 1) * n])
                     .for_each(|(r, d)| *r += d);
             }
-            // The parameter columns: `M W_i − K_t(X_i)(X_i − x0)/Ω` and `−F(τ_i)`.
+            // The parameters' own terms: `M W_i − K_t(X_i)(X_i − x0)/Ω` and `−F(τ_i)`.
             let (w, x) = (&w[i * n..(i + 1) * n], &x[i * n..(i + 1) * n]);
             moved.clear();
             moved.extend((0..n).map(|q| -(x[q] - x0[q]) / omega));
             tangents.apply(i, moved, product);
-            let target = &mut rhs[omega_column * size + i * n..omega_column * size + (i + 1) * n];
+            let target = &mut rhs[i * n..(i + 1) * n];
             self.mass.apply_add(1.0, w, n, 1, target, n);
             target
                 .iter_mut()
@@ -478,8 +570,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             self.system
                 .force()
                 .add_at(tau + self.method.c[i] * h, 1.0, force);
-            let target =
-                &mut rhs[amplitude_column * size + i * n..amplitude_column * size + (i + 1) * n];
+            let target = &mut rhs[size + i * n..size + (i + 1) * n];
             for (t, f) in target.iter_mut().zip(force.iter()) {
                 *t -= f;
             }
@@ -487,9 +578,9 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         rhs.iter_mut().for_each(|e| *e /= -omega);
         lu.as_ref()
             .expect("an exact factorisation at the converged stages")
-            .solve_in_place(rhs, cols);
-        for c in 0..cols {
-            let d_omega = if c == omega_column { 1.0 } else { 0.0 };
+            .solve_in_place(rhs, COLUMNS);
+        for c in 0..COLUMNS {
+            let d_omega = if c == 0 { 1.0 } else { 0.0 };
             let dw = &rhs[c * size..(c + 1) * size];
             let column = &mut phi[c * n2..(c + 1) * n2];
             for p in 0..n {
@@ -536,7 +627,41 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
     ) -> Result<ForcedFlow, IntegrationError> {
         let period = 2.0 * std::f64::consts::PI;
         let steps = ((span / period * self.steps as f64).round() as usize).max(1);
-        self.integrate(z0, 0.0, span, steps, drive, sensitivities)
+        let wanted = if sensitivities {
+            Sensitivities::Full
+        } else {
+            Sensitivities::None
+        };
+        Ok(self.integrate(z0, 0.0, span, steps, drive, wanted)?.0)
+    }
+
+    /// Records the steps when the stage system is sparse (a dense one serves small models,
+    /// whose monodromy is formed whole).
+    fn flow_linearized(
+        &mut self,
+        z0: &[f64],
+        drive: Drive,
+        span: f64,
+    ) -> Option<Result<RecordedFlow, IntegrationError>> {
+        if !matches!(self.stages, Stages::Sparse(_)) {
+            return None;
+        }
+        let period = 2.0 * std::f64::consts::PI;
+        let steps = ((span / period * self.steps as f64).round() as usize).max(1);
+        let recorded = Sensitivities::Recorded;
+        Some(
+            self.integrate(z0, 0.0, span, steps, drive, recorded)
+                .map(|(flow, record)| {
+                    let linearization = CollocationLinearization {
+                        method: self.method,
+                        bbar: self.bta.clone(),
+                        dofs: self.system.dofs(),
+                        steps: record.expect("recorded"),
+                        damping: Some(Arc::new(self.system.damping().clone())),
+                    };
+                    (flow, Arc::new(linearization) as Arc<dyn LinearizedFlow>)
+                }),
+        )
     }
 
     /// On steps no longer than the period's equal steps.
@@ -549,7 +674,8 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
     ) -> Result<Vec<f64>, IntegrationError> {
         let period = 2.0 * std::f64::consts::PI;
         let steps = ((span / period * self.steps as f64).ceil() as usize).max(1);
-        Ok(self.integrate(z0, tau0, span, steps, drive, false)?.z)
+        let (flow, _) = self.integrate(z0, tau0, span, steps, drive, Sensitivities::None)?;
+        Ok(flow.z)
     }
 
     /// Sets the steps a period so that the estimated global error of `z(2π)` is within the
@@ -576,8 +702,9 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
         )?;
         for _ in 0..4 {
             let steps = self.steps.max(2 * MIN_STEPS);
-            let fine = self.integrate(z0, 0.0, period, steps, drive, false)?;
-            let coarse = self.integrate(z0, 0.0, period, steps / 2, drive, false)?;
+            let none = Sensitivities::None;
+            let (fine, _) = self.integrate(z0, 0.0, period, steps, drive, none)?;
+            let (coarse, _) = self.integrate(z0, 0.0, period, steps / 2, drive, none)?;
             let error =
                 self.slow_difference(&fine.z, &coarse.z, &filter) / (2f64.powi(order) - 1.0);
             // Aim at a third of the tolerance, so that the next points, a little further

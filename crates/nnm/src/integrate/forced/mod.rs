@@ -26,7 +26,9 @@ mod implicit;
 pub use explicit::ForcedRungeKutta;
 pub use implicit::ForcedCollocation;
 
-use super::{IntegrationError, IntegrationStats, Tolerances};
+use std::sync::Arc;
+
+use super::{IntegrationError, IntegrationStats, LinearizedFlow, Tolerances};
 
 /// The forcing's parameters at which a flow is integrated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +54,10 @@ pub struct ForcedFlow {
     pub stats: IntegrationStats,
 }
 
+/// A flow with its parameter sensitivities and its recorded linearisation
+/// ([`ForcedIntegrator::flow_linearized`]).
+pub type RecordedFlow = (ForcedFlow, Arc<dyn LinearizedFlow>);
+
 /// Integrates a forced system over its forcing period, with sensitivities on request.
 pub trait ForcedIntegrator {
     /// `z(span)` from `z(0) = z0` at `drive` — `span` the forcing period `2π`, or half of it
@@ -64,6 +70,19 @@ pub trait ForcedIntegrator {
         span: f64,
         sensitivities: bool,
     ) -> Result<ForcedFlow, IntegrationError>;
+
+    /// `z(span)` with the parameter sensitivities only, `[∂z/∂Ω ∂z/∂a]` (`2n × 2`, in
+    /// [`ForcedFlow::sensitivity`]), and the integration's linearised discrete flow, whose
+    /// products `Φ d` replay the recorded steps (matrix-free shooting, docs/method.md eqs.
+    /// (72), (102a)); `None` when the integrator does not record.
+    fn flow_linearized(
+        &mut self,
+        _z0: &[f64],
+        _drive: Drive,
+        _span: f64,
+    ) -> Option<Result<RecordedFlow, IntegrationError>> {
+        None
+    }
 
     /// `z(tau0 + span)` from `z(tau0) = z0` at `drive`, without sensitivities (samples of a
     /// converged motion, and the instants of its peaks).
