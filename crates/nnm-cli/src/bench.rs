@@ -128,7 +128,7 @@ fn forced_row(
         rhs: s.integration.rhs_evaluations,
         tangents: s.integration.tangent_evaluations,
         factorisations: s.integration.factorisations,
-        products: 0,
+        products: s.krylov_products,
     })
 }
 
@@ -408,6 +408,25 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
             &beam,
             &start(&beam, "0")?,
             &[("auto", beam_settings(0.2))],
+        )?);
+        sizes.push(1);
+        // Its first resonance, forced as the 19-element beam's (matrix-free: eq. (102a)).
+        let w1 = mode_frequency(&beam, "0")?;
+        eprintln!("bench: beam of 1,000 elements, forced");
+        rows.push(forced_row(
+            "beam 1,000 el. (2,000 dofs): forced",
+            "forced tip",
+            &beam,
+            &Damping::Rayleigh([0.0, 1e-5]),
+            &Force::Dofs {
+                dofs: vec![beam.dofs() - 2],
+                amplitude: 0.01,
+            },
+            Sweep::Frequency {
+                from: 0.9 * w1,
+                to: 1.3 * w1,
+                amplitude: 0.01,
+            },
         )?);
         sizes.push(1);
         let disk = BladedDisk {

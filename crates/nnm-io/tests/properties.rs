@@ -410,6 +410,7 @@ const RESPONSE_ALL_KEYS: &[&str] = &[
     "max_points",
     "half_period",
     "samples",
+    "formulation",
 ];
 
 /// A `[[response]]`: a valid frequency sweep of a force on dof 0, then its force or up to two

@@ -146,6 +146,7 @@ def test_integers_beyond_the_doubles_are_a_value_error() -> None:
 
     with pytest.raises(ValueError, match="^amplitude must be a finite real number, got an integer beyond the float range$"):
         nnm.Force(0, 10**400)
-    for damping in ({"modal": [10**400]}, {"rayleigh": [10**400, 0.0]}):
-        with pytest.raises(ValueError, match="^damping coefficients must be finite real numbers"):
+    for form, damping in (("modal", {"modal": [10**400]}), ("rayleigh", {"rayleigh": [10**400, 0.0]})):
+        message = f"^damping {form} must be a finite real number, got an integer beyond the float range$"
+        with pytest.raises(ValueError, match=message):
             nnm.duffing(damping=damping)

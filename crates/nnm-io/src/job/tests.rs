@@ -1218,7 +1218,7 @@ fn bad_responses_are_refused_with_one_line() {
                 "{ matrix = [[0.02]] }",
                 "force = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 0.5\nfrequency_end = 3.5\nenergy_max = 1.0",
             ),
-            "job.toml: response `frc`: unknown field `energy_max`, expected one of `force`, `frequency_start`, `frequency_end`, `amplitudes`, `parameter`, `frequency`, `amplitude_max`, `amplitude_start`, `output_dofs`, `tolerance`, `initial_step`, `min_step`, `max_step`, `max_iterations`, `target_iterations`, `max_turn_angle`, `integrator`, `integration_factor`, `events`, `max_points`, `half_period`, `samples`",
+            "job.toml: response `frc`: unknown field `energy_max`, expected one of `force`, `frequency_start`, `frequency_end`, `amplitudes`, `parameter`, `frequency`, `amplitude_max`, `amplitude_start`, `output_dofs`, `tolerance`, `initial_step`, `min_step`, `max_step`, `max_iterations`, `target_iterations`, `max_turn_angle`, `integrator`, `integration_factor`, `events`, `max_points`, `half_period`, `samples`, `formulation`",
         ),
         (
             duffing_response(
