@@ -417,9 +417,12 @@ fn matrix_free_shooting_equals_dense_shooting() {
         to: 193.0,
         amplitude: 0.01,
     };
+    // A tolerance tight enough that the two corrections (GMRES and Newton, dense LU and
+    // chords) leave the same states to well below the multipliers' bound.
     let with = |formulation| {
         let mut settings = ResponseSettings::default();
         settings.formulation = formulation;
+        settings.continuation.tolerance = 1e-9;
         curve(&system, sweep, &settings)
     };
     let (free, dense) = (with(Formulation::MatrixFree), with(Formulation::Dense));

@@ -608,7 +608,9 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
         if !(drive.frequency > 0.0) {
             return Err(ForcedError::NonPositiveFrequency(drive.frequency));
         }
-        let Some(chord) = self.chord.clone() else {
+        // Matrix-free, the exact Jacobian costs an integration that records its steps, about
+        // what a chord's motion costs: Newton's iterations then beat the chord's.
+        let Some(chord) = self.chord.clone().filter(|_| !self.matrix_free()) else {
             return self.exact_evaluation(u);
         };
         let flow = self.integrator.flow(&z0, drive, self.span(), false)?;
