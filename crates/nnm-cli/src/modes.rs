@@ -24,8 +24,8 @@ pub fn modes(file: &Path, out: Option<&Path>) -> Result<()> {
             None => String::new(),
         };
         println!(
-            "{k:>5}  {:>16.9}  {:>6}  {:>7}",
-            m.frequency,
+            "{k:>5}  {:>16}  {:>6}  {:>7}",
+            frequency_cell(m.frequency),
             m.label(),
             pattern
         );
@@ -37,4 +37,37 @@ pub fn modes(file: &Path, out: Option<&Path>) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// A frequency for the table: nine decimals from 1e-3 up to 1e7 rad/s (and a rigid mode's 0),
+/// where they are seven to sixteen significant digits; ten significant digits in scientific
+/// notation outside, where nine decimals would print dozens of digits double precision does not
+/// hold (`K` of order 1e154 gives ω of order 1e77) or none at all (ω of order 1e-12).
+fn frequency_cell(omega: f64) -> String {
+    if omega == 0.0 || !omega.is_finite() || (1e-3..1e7).contains(&omega.abs()) {
+        format!("{omega:.9}")
+    } else {
+        format!("{omega:.9e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::frequency_cell;
+
+    #[test]
+    fn frequencies_are_short_and_keep_ten_digits() {
+        for (omega, shown) in [
+            (0.0, "0.000000000"),
+            (1.0, "1.000000000"),
+            (148.67, "148.670000000"),
+            (1e-3, "0.001000000"),
+            (1414213.562373095, "1414213.562373095"),
+            (1e7, "1.000000000e7"),
+            (1.2345678901234e77, "1.234567890e77"),
+            (2.5e-12, "2.500000000e-12"),
+        ] {
+            assert_eq!(frequency_cell(omega), shown);
+        }
+    }
 }

@@ -86,6 +86,47 @@ fn refused_numbers_are_printed_short() {
     assert!(!out.exists());
 }
 
+/// `nnm modes` prints a frequency far from 1 rad/s in ten significant digits, not nine
+/// decimals: with `K` of order 1e152 (ω of order 1e76) those were 86 characters, most of them
+/// digits double precision does not hold; with `K` of order 1e-24 they were all zeros.
+/// Frequencies of order one keep their nine decimals.
+#[test]
+fn modes_print_extreme_frequencies_short() {
+    let dir = scratch("frequencies");
+    let table = |scale: &str| {
+        let job = write(
+            &dir,
+            "job.toml",
+            &format!(
+                "[model]\nmass = [[1.0, 0.0], [0.0, 1.0]]\n\
+                 stiffness = [[2{scale}, -1{scale}], [-1{scale}, 2{scale}]]\n"
+            ),
+        );
+        let output = nnm(&["modes", &job]);
+        assert!(output.status.success(), "{:?}", stderr_lines(&output));
+        String::from_utf8_lossy(&output.stdout).into_owned()
+    };
+    // ω² = 1 and 3, times the scale.
+    assert_eq!(
+        table(".0"),
+        "index   frequency_rad_s   label  pattern\n    \
+             0       1.000000000                 \n    \
+             1       1.732050808                 \n"
+    );
+    assert_eq!(
+        table("e152"),
+        "index   frequency_rad_s   label  pattern\n    \
+             0    1.000000000e76                 \n    \
+             1    1.732050808e76                 \n"
+    );
+    assert_eq!(
+        table("e-24"),
+        "index   frequency_rad_s   label  pattern\n    \
+             0   1.000000000e-12                 \n    \
+             1   1.732050808e-12                 \n"
+    );
+}
+
 /// A refused branch name is told the characters at fault and the rule, not the characters it
 /// may use as if they were the fault.
 #[test]
