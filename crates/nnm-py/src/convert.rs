@@ -41,7 +41,9 @@ pub fn to_toml(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
         return index
             .extract::<i64>()
             .map(toml::Value::Integer)
-            .map_err(|_| PyValueError::new_err(format!("`{key}` = {index} is out of range")));
+            .map_err(|_| {
+                PyValueError::new_err(format!("`{key}` = {} is out of range", number(&index)))
+            });
     }
     if value.hasattr("__float__")? {
         return Ok(toml::Value::Float(value.extract()?));
@@ -60,6 +62,19 @@ pub fn to_toml(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
         "`{key}` must be a number, a string or a boolean, got {}",
         value.get_type().name()?
     )))
+}
+
+/// A number a caller gave, for a message: as the Python layer shows it (`nnm._checks.number`,
+/// short as `nnm::number::Number`: `10**400` is `1e400`, not its 401 digits), or as `str`
+/// gives it where that module cannot be imported (the unit tests, run without the package).
+fn number(value: &Bound<'_, PyAny>) -> String {
+    value
+        .py()
+        .import("nnm._checks")
+        .and_then(|m| m.getattr("number"))
+        .and_then(|number| number.call1((value,)))
+        .and_then(|shown| shown.extract::<String>())
+        .unwrap_or_else(|_| value.to_string())
 }
 
 /// A job-file value as a Python one (integers, floats, booleans, strings, lists, dicts): what

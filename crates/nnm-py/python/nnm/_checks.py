@@ -10,9 +10,46 @@ from __future__ import annotations
 
 import operator
 import os
+from decimal import Decimal
 from typing import Any
 
 import numpy as np
+
+
+# Integers of up to 24 digits (every 64-bit one, and as long as the library's longest number)
+# are shown in full.
+_FULL_INTEGER = 10**24
+
+
+def number(value: Any) -> str:
+    """A number a caller gave, for a message, short as the library's (``nnm::number::Number``):
+    a float as ``repr`` writes it without the ``+`` and the ``.0`` (``1e300``, ``-2.5e-310``,
+    ``0.25``, ``5``, ``NaN``, ``inf``); an integer in full up to 24 digits, beyond them in
+    scientific notation with at most 17 significant digits (``10**400`` is ``1e400``, not its
+    401 digits). Anything else as ``str`` gives it."""
+    if _is_bool(value) or not isinstance(value, (int, float, np.integer, np.floating)):
+        return str(value)
+    if isinstance(value, (int, np.integer)):
+        i = int(value)
+        if -_FULL_INTEGER < i < _FULL_INTEGER:
+            return str(i)
+        text = format(Decimal(i), ".16e")
+    else:
+        text = repr(float(value))
+        if text == "nan":
+            return "NaN"
+    return _short(text)
+
+
+def _short(text: str) -> str:
+    """A number's text without what the library's numbers leave out: the ``.0`` of a whole
+    number, trailing zeros of a mantissa, the exponent's ``+`` and leading zeros."""
+    if "e" not in text.lower():
+        return text[:-2] if text.endswith(".0") else text
+    mantissa, exponent = text.lower().split("e")
+    if "." in mantissa:
+        mantissa = mantissa.rstrip("0").rstrip(".")
+    return f"{mantissa}e{int(exponent)}"
 
 
 def _is_bool(value: Any) -> bool:
@@ -36,7 +73,7 @@ def integer(name: str, value: Any) -> int:
     raise ``OverflowError``)."""
     i = _int(name, value)
     if i not in _INTEGER_RANGE:
-        raise ValueError(f"`{name}` = {i} is out of range")  # as a keyword setting's
+        raise ValueError(f"`{name}` = {number(i)} is out of range")  # as a keyword setting's
     return i
 
 
@@ -71,7 +108,7 @@ def index(name: str, value: Any, count: int, message: str) -> int:
     non-negative; out of range a ``ValueError`` with ``message`` (formatted with ``value``)."""
     i = _int(name, value)
     if not -count <= i < count:
-        raise ValueError(message.format(i))
+        raise ValueError(message.format(number(i)))
     return i + count if i < 0 else i
 
 
@@ -87,6 +124,15 @@ def physical_memory() -> int:
         return _FALLBACK_MEMORY
 
 
+def _gigabytes(size: int) -> str:
+    """A byte count in GB to three digits, as ``.3g`` writes it, of any size (``size / 1e9``
+    overflows beyond the doubles: ``samples=10**400``)."""
+    try:
+        return f"{size / 1e9:.3g}"
+    except OverflowError:
+        return _short(format(Decimal(size) / 10**9, ".3g"))
+
+
 def samples(value: Any, dofs: int) -> int:
     """A motion's sample count: an integer from 1 up to what fits in half the machine's memory.
 
@@ -97,13 +143,13 @@ def samples(value: Any, dofs: int) -> int:
     interpreter) or swap for hours, long before the integration could finish."""
     count = _int("samples", value)
     if count < 1:
-        raise ValueError(f"samples must be at least 1, got {count}")
+        raise ValueError(f"samples must be at least 1, got {number(count)}")
     per_sample = 32 * dofs + 72
     budget = physical_memory() // 2
     most = budget // per_sample - 1
     if count > most:
         raise ValueError(
-            f"samples={count} would need {(count + 1) * per_sample / 1e9:.3g} GB for a motion of {dofs} dofs, "
+            f"samples={number(count)} would need {_gigabytes((count + 1) * per_sample)} GB for a motion of {dofs} dofs, "
             f"more than half of this machine's {2 * budget / 1e9:.3g} GB of memory: at most {most} samples"
         )
     return count
