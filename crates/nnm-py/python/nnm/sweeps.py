@@ -58,6 +58,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 import numpy as np
 
+from . import _checks
 from ._model import Model, backbone, modes
 
 if TYPE_CHECKING:
@@ -72,6 +73,15 @@ STATISTICS_CSV = "statistics.csv"
 #: smooth periodic function over equal samples converges spectrally, and 32 resolve the
 #: harmonics that carry the blades' energy to well below a percent.
 MOTION_SAMPLES = 32
+
+#: The most samples a sweep plans (branches × grid points × replicates of every level): each is
+#: a branch followed (about a second of a core) and a row held in memory, so a count beyond it
+#: (``samples=10**400``) is refused up front instead of filling the memory while planning.
+MAX_SAMPLES = 1_000_000
+
+#: Processes of a local cluster per core of this machine, at most: each computes on one thread,
+#: and more only wait (``workers=10**6`` started processes until the system killed the sweep).
+WORKERS_PER_CORE = 4
 
 #: The localization above which a motion counts as localized (``localization_energy``).
 LOCALIZED = 0.5
@@ -119,12 +129,19 @@ def plan(
             raise ValueError(f"grid parameter `{key}` has no values")
     for sigma in mistuning:
         if not (math.isfinite(sigma) and sigma >= 0):
-            raise ValueError(f"a mistuning level must be finite and non-negative, got {sigma}")
+            raise ValueError(f"a mistuning level must be finite and non-negative, got {_checks.number(sigma)}")
     if mistuning and any(s > 0 for s in mistuning) and samples < 1:
         raise ValueError("mistuning needs `samples` >= 1 (replicates per level)")
     keys = list(grid)
-    points = [tuple(zip(keys, values)) for values in itertools.product(*grid.values())]
     levels = sorted(set(float(s) for s in mistuning)) or [0.0]
+    # Counted before anything is listed (one branch when none is named yet).
+    count = max(len(branches), 1) * math.prod(len(v) for v in grid.values()) * sum(samples if s > 0 else 1 for s in levels)
+    if count > MAX_SAMPLES:
+        raise ValueError(
+            f"the sweep would have {_checks.number(count)} samples, more than {MAX_SAMPLES} (nnm.sweeps.MAX_SAMPLES): "
+            "fewer `samples`, levels or grid values"
+        )
+    points = [tuple(zip(keys, values)) for values in itertools.product(*grid.values())]
     out: list[Sample] = []
     for branch in branches:
         for point in points:
@@ -453,6 +470,12 @@ def sweep(
         localization_sectors = _integer("localization_sectors", localization_sectors, 1)
     if workers is not None:
         workers = _integer("workers", workers, 1, "leave it out for one per core")
+        most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+        if workers > most:
+            raise ValueError(
+                f"workers must be at most {most} ({WORKERS_PER_CORE} per core of this machine; each computes on one core), "
+                f"got {_checks.number(workers)}"
+            )
     if sum(x is not None for x in (workers, scheduler, client)) > 1:
         raise ValueError("give at most one of `workers`, `scheduler` and `client`")
     if scheduler is not None:
@@ -607,14 +630,14 @@ def _integer(name: str, value: Any, least: int, hint: str = "") -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} takes an integer, got {value!r}")
     if value < least:
-        raise ValueError(f"{name} must be at least {least}{f' ({hint})' if hint else ''}, got {value}")
+        raise ValueError(f"{name} must be at least {least}{f' ({hint})' if hint else ''}, got {_checks.number(value)}")
     return int(value)
 
 
 def _real(what: str, value: Any) -> float:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"{what} is a number, got {value!r}")
-    return float(value)
+    return _checks.real(what, value)  # an int beyond the doubles (10**400) a ValueError
 
 
 def _checked_grid(grid: Any) -> dict[str, list[int | float]]:
@@ -699,16 +722,17 @@ def _check_points(
             if cyclic is None:
                 raise ValueError(f"{where}localization_sectors applies to a cyclic model (a bladed disk), and this one is not")
             if top > cyclic[0]:
-                raise ValueError(f"{where}localization_sectors = {top} is more than the model's {cyclic[0]} sectors")
+                raise ValueError(f"{where}localization_sectors = {_checks.number(top)} is more than the model's {cyclic[0]} sectors")
         if not levels:
             continue
         if tuned.family != "bladed-disk" or cyclic is None:
             raise ValueError("mistuning applies to a bladed disk (`family = \"bladed-disk\"`); vary other models with a grid")
-        draws = np.array([mistuning_draw(seed, r, cyclic[0]) for r in range(samples)])
-        lowest = int(np.argmin(draws.min(axis=1)))
+        # The replicate with the blade furthest below its tuned stiffness, one draw at a time
+        # (all at once would hold samples × sectors numbers).
+        lowest, draw = min(((r, mistuning_draw(seed, r, cyclic[0])) for r in range(samples)), key=lambda rd: rd[1].min())
         for sigma in levels:
             try:
-                Model.from_job(job, {**point, "model.blade_stiffness_mistuning": (sigma * draws[lowest]).tolist()})
+                Model.from_job(job, {**point, "model.blade_stiffness_mistuning": (sigma * draw).tolist()})
             except (ValueError, TypeError) as e:
                 raise ValueError(f"{where}mistuning σ = {sigma:g}, replicate {lowest} of seed {seed}: {e}") from None
 
