@@ -304,6 +304,43 @@ def test_an_unreachable_or_bogus_scheduler_is_one_line_before_any_file(write_job
     assert sweeps.SCHEDULER_TIMEOUT <= 5  # "within 10 s", Python's start included
 
 
+def test_a_server_that_is_not_a_scheduler_is_one_line_before_any_file(write_job, tmp_path: Path) -> None:
+    """`--scheduler` at a port where another server answers (an HTTP server, a proxy): Dask
+    read its reply as a message of exabytes and the sweep died with a MemoryError's 40-line
+    traceback, status 1. Now one line, status 2, `--out` not created."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+
+    def answer() -> None:
+        while True:
+            try:
+                connection, _ = server.accept()
+            except OSError:  # closed at the end of the test
+                return
+            with connection:
+                connection.recv(65536)
+                connection.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+
+    threading.Thread(target=answer, daemon=True).start()
+    job = write_job(SMALL_DISK)
+    out = tmp_path / "o"
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    try:
+        run = sweep_command(job, out, "--scheduler", address)
+    finally:
+        server.close()
+    assert run.returncode == 2, run.stderr
+    assert run.stderr == (
+        f"error: what answered at {address} is not a Dask scheduler (MemoryError reading its reply); "
+        "is that the scheduler's address and port? Nothing was written\n"
+    )
+    assert not out.exists()
+
+
 @pytest.mark.parametrize(
     ("arguments", "error", "message"),
     [

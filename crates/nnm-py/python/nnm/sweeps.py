@@ -614,6 +614,12 @@ def _start_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]
             raise ConnectionError(
                 f"no Dask scheduler answered at {scheduler} within {SCHEDULER_TIMEOUT} s ({e}); is it running? Nothing was written"
             ) from None
+        except Exception as e:  # noqa: BLE001 — a server that is not a scheduler: Dask reads its reply
+            # as a frame (an HTTP server's bytes were a length of exabytes: a MemoryError)
+            raise ConnectionError(
+                f"what answered at {scheduler} is not a Dask scheduler ({type(e).__name__} reading its reply); "
+                "is that the scheduler's address and port? Nothing was written"
+            ) from None
         return client, client
     cluster = LocalCluster(
         n_workers=workers or os.cpu_count() or 1,
