@@ -132,6 +132,28 @@ fn forced_row(
     })
 }
 
+/// An ECL beam's first resonance forced at the tip: Rayleigh damping `1e-5 K`, 0.01 N from
+/// 0.9 to 1.3 times its first frequency, through its two folds (at 1 N the upper fold lies
+/// beyond 1.3 ω1).
+fn beam_resonance_row(case: &str, beam: &Structure) -> Result<Row> {
+    let w1 = mode_frequency(beam, "0")?;
+    forced_row(
+        case,
+        "forced tip",
+        beam,
+        &Damping::Rayleigh([0.0, 1e-5]),
+        &Force::Dofs {
+            dofs: vec![beam.dofs() - 2],
+            amplitude: 0.01,
+        },
+        Sweep::Frequency {
+            from: 0.9 * w1,
+            to: 1.3 * w1,
+            amplitude: 0.01,
+        },
+    )
+}
+
 /// The linear frequency of mode `label`.
 fn mode_frequency(structure: &Structure, label: &str) -> Result<f64> {
     let modes = linear_modes(structure)?;
@@ -355,31 +377,17 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
             ],
         )?);
         sizes.push(2);
-        // The 19-element beam's first resonance, forced at the tip with Rayleigh damping
-        // through its two folds (0.01 N: at 1 N the upper fold lies beyond 1.3 ω1), against
-        // its backbone to +20%; NLvib's harmonic balance on the same curve:
-        // scripts/nlvib/RESULTS.md.
-        let w1 = mode_frequency(&beam, "0")?;
+        // The 19-element beam's first resonance forced at the tip, against its backbone to
+        // +20%; NLvib's harmonic balance on the same curve: scripts/nlvib/RESULTS.md.
         let mut pair = variant_rows(
             "beam 19 el.: backbone vs forced",
             &beam,
             &start(&beam, "0")?,
             &[("backbone", beam_settings(0.2))],
         )?;
-        pair.push(forced_row(
+        pair.push(beam_resonance_row(
             "beam 19 el.: backbone vs forced",
-            "forced tip",
             &beam,
-            &Damping::Rayleigh([0.0, 1e-5]),
-            &Force::Dofs {
-                dofs: vec![beam.dofs() - 2],
-                amplitude: 0.01,
-            },
-            Sweep::Frequency {
-                from: 0.9 * w1,
-                to: 1.3 * w1,
-                amplitude: 0.01,
-            },
         )?);
         rows.extend(pair);
         sizes.push(2);
@@ -411,22 +419,10 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
         )?);
         sizes.push(1);
         // Its first resonance, forced as the 19-element beam's (matrix-free: eq. (102a)).
-        let w1 = mode_frequency(&beam, "0")?;
         eprintln!("bench: beam of 1,000 elements, forced");
-        rows.push(forced_row(
+        rows.push(beam_resonance_row(
             "beam 1,000 el. (2,000 dofs): forced",
-            "forced tip",
             &beam,
-            &Damping::Rayleigh([0.0, 1e-5]),
-            &Force::Dofs {
-                dofs: vec![beam.dofs() - 2],
-                amplitude: 0.01,
-            },
-            Sweep::Frequency {
-                from: 0.9 * w1,
-                to: 1.3 * w1,
-                amplitude: 0.01,
-            },
         )?);
         sizes.push(1);
         let disk = BladedDisk {
