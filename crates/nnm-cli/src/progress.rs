@@ -20,9 +20,12 @@ pub fn quiet() -> bool {
 }
 
 /// A progress line on stderr (whatever `--quiet` says: the caller decides), remembered for
-/// [`separate`].
+/// [`separate`]. Formatted first and written by one call: `eprintln!` writes a line piece by
+/// piece (stderr is unbuffered), and the interrupt handler's line could land inside it.
 pub fn line(text: std::fmt::Arguments<'_>) {
-    eprintln!("{text}");
+    use std::io::Write;
+    let whole = format!("{text}\n");
+    let _ = std::io::stderr().lock().write_all(whole.as_bytes());
     SAID.store(true, Ordering::Relaxed);
 }
 
