@@ -474,6 +474,23 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
             .collect()
     }
 
+    /// The residual rows of `flow` from `z0` at `u` and their relative size, the integration
+    /// counted (and the evaluation, when `exact`: one with sensitivities).
+    fn residual_of(
+        &mut self,
+        u: &[f64],
+        z0: &[f64],
+        flow: &ForcedFlow,
+        exact: bool,
+    ) -> (Vec<f64>, f64) {
+        self.stats.evaluations += usize::from(exact);
+        self.stats.integrations += 1;
+        self.stats.integration += flow.stats;
+        let rows = self.residual_rows(u, z0, &flow.z);
+        let relative_residual = self.relative(u, &rows);
+        (rows, relative_residual)
+    }
+
     /// `‖rows‖ / ‖D z0‖` (eq. (19)).
     fn relative(&self, u: &[f64], rows: &[f64]) -> f64 {
         let n2 = 2 * self.system.dofs();
@@ -495,11 +512,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
             }
         }
         let flow = self.integrator.flow(&z0, drive, self.span(), true)?;
-        self.stats.evaluations += 1;
-        self.stats.integrations += 1;
-        self.stats.integration += flow.stats;
-        let rows = self.residual_rows(u, &z0, &flow.z);
-        let relative_residual = self.relative(u, &rows);
+        let (rows, relative_residual) = self.residual_of(u, &z0, &flow, true);
         let flip = self.flip();
         let phi = |i: usize, j: usize| flip * flow.sensitivity[j * n2 + i];
         let parameter_column = match self.sweep {
@@ -544,11 +557,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         linearization: Arc<dyn LinearizedFlow>,
     ) -> ForcedEvaluation {
         let n2 = 2 * self.system.dofs();
-        self.stats.evaluations += 1;
-        self.stats.integrations += 1;
-        self.stats.integration += flow.stats;
-        let rows = self.residual_rows(u, &z0, &flow.z);
-        let relative_residual = self.relative(u, &rows);
+        let (rows, relative_residual) = self.residual_of(u, &z0, &flow, true);
         let flip = self.flip();
         // `flow.sensitivity` holds `[∂z/∂Ω ∂z/∂a]`.
         let parameter = match self.sweep {
@@ -614,10 +623,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
             return self.exact_evaluation(u);
         };
         let flow = self.integrator.flow(&z0, drive, self.span(), false)?;
-        self.stats.integrations += 1;
-        self.stats.integration += flow.stats;
-        let rows = self.residual_rows(u, &z0, &flow.z);
-        let relative_residual = self.relative(u, &rows);
+        let (rows, relative_residual) = self.residual_of(u, &z0, &flow, false);
         // A chord step must cut the residual fourfold, or the iterate gets the exact
         // Jacobian; the first iterate of a new solve (after a converged point) always chords.
         let stalled = self.chord_residual.is_some_and(|previous| {

@@ -434,6 +434,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         ws.floor = 0.0;
         let mut buffers = VariationalBuffers::default();
         let mut result = Ok(());
+        // The next state: every entry written each step, the buffer swapped with `z`.
+        let mut z1 = vec![0.0; n2];
         for step in 0..steps {
             let tau = tau0 + step as f64 * h;
             let exact = parameters > 0;
@@ -442,7 +444,6 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 break;
             }
             let (x0, v0) = z.split_at(n);
-            let mut z1 = vec![0.0; n2];
             for p in 0..n {
                 let (mut dv, mut dx) = (0.0, 0.0);
                 for j in 0..s {
@@ -479,7 +480,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                     });
                 }
             }
-            z = z1;
+            std::mem::swap(&mut z, &mut z1);
             stats.steps += 1;
         }
         // The last stages are not a first iterate for an unrelated integration.
