@@ -4,7 +4,9 @@
 
 use std::sync::Arc;
 
-use crate::linalg::{DenseLu, Mat, SparseLu};
+use super::split::SplitStages;
+use super::stages::StageLu;
+use crate::linalg::{DenseLu, Mat};
 use crate::model::MechanicalSystem;
 
 /// Most nonlinear unknowns `s p` (stages × nonlinear dofs) for which the stage system is
@@ -23,6 +25,10 @@ pub(super) struct LowRank {
     pub(super) dofs: Vec<usize>,
     /// `K_t(0)` on the tangent's pattern.
     pub(super) rest: Vec<f64>,
+    /// The linear part's stage system split into systems of the model's size (eq. (32f),
+    /// exact here: every stage has the tangent `K_t(0)`); `None` if the method's `A` has no
+    /// eigenbasis to split by.
+    pub(super) split: Option<SplitStages>,
 }
 
 /// The linear part of the stage system at one step size, factorised, with what the low-rank
@@ -30,7 +36,7 @@ pub(super) struct LowRank {
 /// size, shared by every step (and every recorded step) of an integration.
 pub(in crate::integrate) struct LinearStages {
     pub(super) h: f64,
-    pub(super) lu: SparseLu,
+    pub(super) lu: StageLu,
     pub(super) z: Vec<f64>,
     pub(super) vtz: Vec<f64>,
     /// `h² Ā`, row-major `s × s`.

@@ -63,7 +63,7 @@ use crate::integrate::{
 };
 use crate::model::{Block, ExplicitForm, MechanicalSystem, SparseMatrix};
 pub(in crate::integrate) use low_rank::LinearStages;
-use split::SplitStages;
+pub(in crate::integrate) use split::SplitStages;
 pub(in crate::integrate) use stages::{SparseStages, StageLu, StageMethod};
 pub(in crate::integrate) use step_count::low_pass;
 pub(in crate::integrate) use tangents::StageTangents;
@@ -138,10 +138,10 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         let mass = crate::model::mass_entries(system.mass());
         let sparse = system.tangent_pattern().and_then(|pattern| {
             SparseStages::new(pattern, &mass, None, method.c.len())
-                .map(|stages| stages.with_low_rank(system, method.c.len()))
+                .map(|stages| stages.with_low_rank(system, (&mass, None), &coefficients))
         });
         let split = if n > SPLIT_DOFS {
-            Self::split_stages(system, sparse.as_ref(), &mass, &coefficients.abar)
+            Self::split_stages(system, sparse.as_ref(), &mass, &coefficients)
         } else {
             None
         };

@@ -1,29 +1,34 @@
 //! The stage system of a collocation step split into `s` systems of the model's size
-//! (docs/method.md eq. (32f)), for large sparse models whose nonlinearity is everywhere.
+//! (docs/method.md eq. (32f)): exactly for a stage system whose stages share one tangent (the
+//! linear part of a localised nonlinearity's, eq. (32e)), and as the preconditioner of exact
+//! solves for large sparse models whose nonlinearity is everywhere.
 //!
-//! **Why.** The exact stage Jacobian `J = I⊗M + h² (Ā⊗I) diag(K_t(X_i))` is `s n × s n`;
-//! its sparse LU with partial pivoting fills like a band of `2 s` times the model's: on the
-//! 10⁴-dof von Kármán beam one factorisation took 26.7 ms and 21 MB, and a matrix-free
-//! integration records one a step. With one tangent `K̄` for every stage, the matrix
-//! `P = I⊗M + h² Ā⊗K̄` is block-diagonalised by the eigenvectors of `Ā = T Λ T⁻¹`
-//! (Butcher 1976; Hairer & Wanner, *Solving ODEs II*, §IV.8): `P = (T⊗I) diag(M + h² λ_j K̄)
-//! (T⁻¹⊗I)` — one real system per real eigenvalue and one complex system per conjugate pair,
-//! each of the model's size and pattern: 1.7 + 1.6 ms on the same beam, 1.8 MB for the real
-//! factors (the complex ones hold twice the values on the same indices).
+//! **Why.** The exact stage Jacobian `J = I⊗M + h (A⊗C) + h² (Ā⊗I) diag(K_t(X_i))` (`C` a
+//! forced motion's damping, eq. (96); none for free motions) is `s n × s n`; its sparse LU
+//! with partial pivoting fills like a band of `2 s` times the model's: on the 10⁴-dof von
+//! Kármán beam one factorisation took 26.7 ms and 21 MB, and a matrix-free integration
+//! records one a step. With one tangent `K̄` for every stage, the matrix
+//! `P = I⊗M + h A⊗C + h² Ā⊗K̄` is block-diagonalised by the eigenvectors of `A = T Λ T⁻¹`,
+//! which are those of `Ā = A² = T Λ² T⁻¹` (Butcher 1976; Hairer & Wanner, *Solving ODEs II*,
+//! §IV.8): `P = (T⊗I) diag(M + h λ_j C + h² λ_j² K̄) (T⁻¹⊗I)` — one real system per real
+//! eigenvalue and one complex system per conjugate pair, each of the model's size and
+//! pattern: 1.7 + 1.6 ms on the same beam, 1.8 MB for the real factors (the complex ones hold
+//! twice the values on the same indices).
 //!
-//! **Exactness is kept.** `P` serves the stage Newton iteration as an approximate Jacobian
-//! (its fixed point is the same: the converged stages are those of the exact method), and
-//! the variational solves `J dW = b` — which must be exact, so that the monodromy is the
-//! derivative of the discrete flow that shooting's Newton solves — are iterated to round-off
-//! with `P` as preconditioner: `dW ← dW + P⁻¹ (b − J dW)`, with `J`'s action from the stage
-//! tangents themselves. `P⁻¹ J − I = P⁻¹ h² (Ā⊗I) diag(K_t(X_i) − K̄)` is the change of the
-//! tangent within one step relative to the stage matrix, small wherever the step resolves
-//! the motion.
+//! **Exactness is kept.** Where the stages share their tangent, `P = J`. Elsewhere `P` serves
+//! the stage Newton iteration as an approximate Jacobian (its fixed point is the same: the
+//! converged stages are those of the exact method), and the variational solves `J dW = b` —
+//! which must be exact, so that the monodromy is the derivative of the discrete flow that
+//! shooting's Newton solves — are iterated to round-off with `P` as preconditioner:
+//! `dW ← dW + P⁻¹ (b − J dW)`, with `J`'s action from the stage tangents themselves.
+//! `P⁻¹ J − I = P⁻¹ h² (Ā⊗I) diag(K_t(X_i) − K̄)` is the change of the tangent within one
+//! step relative to the stage matrix, small wherever the step resolves the motion.
 
 use std::sync::Arc;
 
 use faer::c64;
 
+use super::stages::{StageEntry, StageMethod};
 use super::tangents::StageTangents;
 use crate::linalg::{Mat, SparseLu, SparseLuPattern};
 use crate::model::SparseMatrix;
@@ -41,8 +46,9 @@ pub const SPLIT_DOFS: usize = 10_000;
 /// estimate anyway.
 const MAX_REFINEMENTS: usize = 30;
 
-/// The eigen-decomposition `Ā = T Λ T⁻¹` of a collocation method's `Ā = A²`, one entry per
-/// real eigenvalue and one per conjugate pair (the one with `Im λ > 0`).
+/// The eigen-decomposition `A = T Λ T⁻¹` of a collocation method's `A` (so `Ā = A² =
+/// T Λ² T⁻¹`), one entry per real eigenvalue and one per conjugate pair (the one with
+/// `Im λ > 0`).
 #[derive(Debug)]
 pub(super) struct StageEigen {
     s: usize,
@@ -53,11 +59,12 @@ pub(super) struct StageEigen {
 }
 
 impl StageEigen {
-    /// The decomposition of `abar` (`s × s`); `None` if it is not diagonalisable in a
+    /// The decomposition of `a` (`s × s`); `None` if it is not diagonalisable in a
     /// well-conditioned basis (no collocation method of this crate is such).
-    pub(super) fn new(abar: &[Vec<f64>]) -> Option<Self> {
-        let s = abar.len();
-        let a = Mat::<f64>::from_fn(s, s, |i, j| abar[i][j]);
+    pub(super) fn new(a: &[Vec<f64>]) -> Option<Self> {
+        let s = a.len();
+        let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+        let a = Mat::<f64>::from_fn(s, s, |i, j| a[i][j]);
         let eigen = a.eigen().ok()?;
         let (u, values) = (eigen.U(), eigen.S());
         let t = Mat::<c64>::from_fn(s, s, |i, j| u[(i, j)]);
@@ -72,7 +79,6 @@ impl StageEigen {
             use faer::linalg::solvers::Solve;
             t.partial_piv_lu().solve(&identity)
         };
-        let scale = abar.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
         let mut real = Vec::new();
         let mut complex = Vec::new();
         for j in 0..s {
@@ -99,67 +105,79 @@ impl StageEigen {
     }
 }
 
-/// The single-stage pattern (`M`'s and `K_t`'s union) the split systems are factorised on,
-/// with the decomposition of `Ā`.
-pub(super) struct SplitStages {
-    pub(super) eigen: Arc<StageEigen>,
+/// The single-stage pattern the split systems are factorised on, with the decomposition of
+/// `A`.
+pub(in crate::integrate) struct SplitStages {
+    eigen: Arc<StageEigen>,
     lu: SparseLuPattern,
-    /// Per entry of the pattern in compressed-column order: its `M` value and its position
-    /// in `K_t`'s values.
-    entries: Vec<(f64, Option<usize>)>,
+    /// The single-stage pattern's entries (`M`'s, `C`'s and `K_t`'s union).
+    entries: Vec<StageEntry>,
     mass: Arc<SparseMatrix>,
+    /// A forced motion's damping `C`; `None` for free motions.
+    damping: Option<Arc<SparseMatrix>>,
+    /// `A` and `Ā`, row-major.
+    a: Vec<f64>,
     abar: Vec<f64>,
 }
 
 impl SplitStages {
-    /// On the pattern `lu` with `entries` (`M` value, `K_t` position) of one stage.
+    /// On the pattern `lu` with `entries` of one stage, for the method of coefficients
+    /// `method`.
     pub(super) fn new(
         eigen: StageEigen,
         lu: SparseLuPattern,
-        entries: Vec<(f64, Option<usize>)>,
-        mass: SparseMatrix,
-        abar: &[Vec<f64>],
+        entries: Vec<StageEntry>,
+        (mass, damping): (&SparseMatrix, Option<&SparseMatrix>),
+        method: &StageMethod,
     ) -> Self {
         Self {
             eigen: Arc::new(eigen),
             lu,
             entries,
-            mass: Arc::new(mass),
-            abar: abar.iter().flatten().copied().collect(),
+            mass: Arc::new(mass.clone()),
+            damping: damping.map(|c| Arc::new(c.clone())),
+            a: method.a.iter().flatten().copied().collect(),
+            abar: method.abar.iter().flatten().copied().collect(),
         }
     }
 
-    /// The values of `M + h² λ K̄` on the pattern (`λ` real or complex).
+    /// The values of `M + h λ C + h² λ² K̄` on the pattern (`λ` real or complex).
     fn system_values<T: SplitScalar>(
         &self,
         lambda: T,
-        hh: f64,
+        h: f64,
         mean: &impl Fn(usize) -> f64,
     ) -> Vec<T> {
+        let hl = lambda * h;
+        let hhll = hl * hl;
         self.entries
             .iter()
-            .map(|&(m, slot)| T::from(m) + slot.map_or(T::default(), |p| lambda * (hh * mean(p))))
+            .map(|e| {
+                T::from(e.mass) + hl * e.damping + e.slot.map_or(T::default(), |p| hhll * mean(p))
+            })
             .collect()
     }
 
     /// `P` for step `h` with the stage tangents `tangents` (on the system's pattern): `K̄` is
-    /// their mean. `None` if a split system is singular.
+    /// their mean (with one tangent for every stage, `P = J`). `None` if a split system is
+    /// singular.
     pub(super) fn factorise(&self, h: f64, tangents: &[Vec<f64>]) -> Option<SplitLu> {
         let s = tangents.len();
         let mean = |p: usize| tangents.iter().map(|t| t[p]).sum::<f64>() / s as f64;
-        let hh = h * h;
         let real = (self.eigen.real.iter())
-            .map(|&(lambda, ..)| self.lu.factorise(&self.system_values(lambda, hh, &mean)))
+            .map(|&(lambda, ..)| self.lu.factorise(&self.system_values(lambda, h, &mean)))
             .collect::<Option<Vec<_>>>()?;
         let complex = (self.eigen.complex.iter())
-            .map(|&(lambda, ..)| self.lu.factorise(&self.system_values(lambda, hh, &mean)))
+            .map(|&(lambda, ..)| self.lu.factorise(&self.system_values(lambda, h, &mean)))
             .collect::<Option<Vec<_>>>()?;
         Some(SplitLu {
             eigen: self.eigen.clone(),
             real,
             complex,
             mass: self.mass.clone(),
-            hh_abar: self.abar.iter().map(|a| hh * a).collect(),
+            damping: self.damping.clone(),
+            h_a: self.a.iter().map(|a| h * a).collect(),
+            hh_abar: self.abar.iter().map(|a| h * h * a).collect(),
         })
     }
 }
@@ -171,6 +189,7 @@ trait SplitScalar:
     + Default
     + From<f64>
     + std::ops::Mul<Output = Self>
+    + std::ops::Add<Output = Self>
     + std::ops::Mul<f64, Output = Self>
     + std::ops::AddAssign
 {
@@ -227,7 +246,9 @@ pub(in crate::integrate) struct SplitLu {
     real: Vec<SparseLu<f64>>,
     complex: Vec<SparseLu<c64>>,
     mass: Arc<SparseMatrix>,
-    /// `h² Ā`, row-major.
+    damping: Option<Arc<SparseMatrix>>,
+    /// `h A` and `h² Ā`, row-major.
+    h_a: Vec<f64>,
     hh_abar: Vec<f64>,
 }
 
@@ -249,7 +270,8 @@ impl SplitLu {
         b.copy_from_slice(&out);
     }
 
-    /// `J X` for `cols` columns (`s n` each): `(J x)_i = M x_i + K_t(X_i) Σ_j h² Ā_ij x_j`.
+    /// `J X` for `cols` columns (`s n` each): `(J x)_i = M x_i + C Σ_j h A_ij x_j +
+    /// K_t(X_i) Σ_j h² Ā_ij x_j`.
     fn apply_exact(&self, x: &[f64], cols: usize, tangents: &StageTangents, out: &mut [f64]) {
         let s = self.eigen.s;
         let m = x.len() / cols.max(1);
@@ -258,19 +280,26 @@ impl SplitLu {
         let values = self.mass.values();
         let mut mixed = vec![0.0; n];
         let mut product = vec![0.0; n];
+        let combine = |weights: &[f64], xc: &[f64], i: usize, mixed: &mut [f64]| {
+            mixed.fill(0.0);
+            for j in 0..s {
+                let a = weights[i * s + j];
+                mixed
+                    .iter_mut()
+                    .zip(&xc[j * n..(j + 1) * n])
+                    .for_each(|(y, x)| *y += a * x);
+            }
+        };
         for col in 0..cols {
             let xc = &x[col * m..(col + 1) * m];
             let oc = &mut out[col * m..(col + 1) * m];
             for i in 0..s {
-                mixed.fill(0.0);
-                for j in 0..s {
-                    let a = self.hh_abar[i * s + j];
-                    mixed
-                        .iter_mut()
-                        .zip(&xc[j * n..(j + 1) * n])
-                        .for_each(|(y, x)| *y += a * x);
-                }
+                combine(&self.hh_abar, xc, i, &mut mixed);
                 tangents.apply_plain(i, &mixed, &mut product);
+                if let Some(damping) = &self.damping {
+                    combine(&self.h_a, xc, i, &mut mixed);
+                    damping.apply_add(1.0, &mixed, n, 1, &mut product, n);
+                }
                 let xi = &xc[i * n..(i + 1) * n];
                 for (r, o) in oc[i * n..(i + 1) * n].iter_mut().enumerate() {
                     let span = pattern.row_start[r]..pattern.row_start[r + 1];
@@ -335,40 +364,36 @@ mod tests {
     use super::*;
     use crate::integrate::{GAUSS4, GAUSS6, RADAU5};
 
-    /// `T Λ T⁻¹` gives back `Ā = A²` for every collocation method, from the real eigenvalues
-    /// and the conjugate pairs kept (Gauss4 has one pair, Gauss6 and Radau5 one real and one
-    /// pair).
+    /// `T Λ T⁻¹` gives back `A`, and `T Λ² T⁻¹` gives back `Ā = A²`, for every collocation
+    /// method, from the real eigenvalues and the conjugate pairs kept (Gauss4 has one pair,
+    /// Gauss6 and Radau5 one real and one pair).
     #[test]
-    fn stage_eigen_decomposition_reconstructs_abar() {
+    fn stage_eigen_decomposition_reconstructs_a_and_abar() {
         for (method, real) in [(&GAUSS4, 0), (&GAUSS6, 1), (&RADAU5, 1)] {
+            let coefficients = StageMethod::new(method);
             let s = method.c.len();
-            let abar: Vec<Vec<f64>> = (0..s)
-                .map(|i| {
-                    (0..s)
-                        .map(|j| (0..s).map(|l| method.a[i][l] * method.a[l][j]).sum())
-                        .collect()
-                })
-                .collect();
-            let eigen = StageEigen::new(&abar).unwrap();
+            let eigen = StageEigen::new(&coefficients.a).unwrap();
             assert_eq!(eigen.real.len(), real, "{}", method.name);
-            for i in 0..s {
-                for j in 0..s {
-                    let mut value: f64 = eigen
-                        .real
-                        .iter()
-                        .map(|(lambda, t, tinv)| t[i] * lambda * tinv[j])
-                        .sum();
-                    value += eigen
-                        .complex
-                        .iter()
-                        .map(|(lambda, t, tinv)| 2.0 * (t[i] * *lambda * tinv[j]).re)
-                        .sum::<f64>();
-                    assert!(
-                        (value - abar[i][j]).abs() < 1e-14,
-                        "{}: ({i}, {j}) {value} vs {}",
-                        method.name,
-                        abar[i][j]
-                    );
+            for (power, expected) in [(1, &coefficients.a), (2, &coefficients.abar)] {
+                for i in 0..s {
+                    for j in 0..s {
+                        let mut value: f64 = eigen
+                            .real
+                            .iter()
+                            .map(|(lambda, t, tinv)| t[i] * lambda.powi(power) * tinv[j])
+                            .sum();
+                        value += eigen
+                            .complex
+                            .iter()
+                            .map(|(lambda, t, tinv)| 2.0 * (t[i] * lambda.powi(power) * tinv[j]).re)
+                            .sum::<f64>();
+                        assert!(
+                            (value - expected[i][j]).abs() < 1e-14,
+                            "{} power {power}: ({i}, {j}) {value} vs {}",
+                            method.name,
+                            expected[i][j]
+                        );
+                    }
                 }
             }
         }

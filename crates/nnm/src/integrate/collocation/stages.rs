@@ -31,14 +31,14 @@ pub(in crate::integrate) struct SparseStages {
 
 /// Where one entry of the stage Jacobian takes its value from.
 #[derive(Clone, Copy)]
-struct StageEntry {
+pub(super) struct StageEntry {
     /// Its block row and column `(i, j)`.
     block: (usize, usize),
     /// `M`'s entry (diagonal blocks only) and `C`'s at its place in the block.
-    mass: f64,
-    damping: f64,
+    pub(super) mass: f64,
+    pub(super) damping: f64,
     /// Its position in `K_t`'s values, if the tangent's pattern has it.
-    slot: Option<usize>,
+    pub(super) slot: Option<usize>,
 }
 
 impl SparseStages {
@@ -93,23 +93,49 @@ impl SparseStages {
         }
         Some(Self {
             tangent: Arc::new(tangent.clone()),
-            lu: SparseLuPattern::new(stages * n, col_ptr, row_idx)?,
+            // A single stage's system has the model's thin pattern (see `simplicial`).
+            lu: if stages == 1 {
+                SparseLuPattern::simplicial(n, col_ptr, row_idx)?
+            } else {
+                SparseLuPattern::new(stages * n, col_ptr, row_idx)?
+            },
             entries,
             low_rank: None,
         })
     }
 
+    /// The stage systems of `method` split into systems of the model's size (eq. (32f)), on
+    /// the single-stage pattern of `M`, `C` and `K_t` (`tangent`); `None` if `A` has no
+    /// well-conditioned eigenbasis.
+    pub(in crate::integrate) fn split(
+        tangent: &SparsityPattern,
+        (mass, damping): (&SparseMatrix, Option<&SparseMatrix>),
+        method: &StageMethod,
+    ) -> Option<SplitStages> {
+        let single = Self::new(tangent, mass, damping, 1)?;
+        Some(SplitStages::new(
+            StageEigen::new(&method.a)?,
+            single.lu,
+            single.entries,
+            (mass, damping),
+            method,
+        ))
+    }
+
     /// Solves the stage systems of `system` as low-rank updates (eq. (32e)) when its
-    /// nonlinearity lives on few enough dofs.
+    /// nonlinearity lives on few enough dofs, their linear part split exactly (eq. (32f):
+    /// every stage has the same tangent there) — `mass` and `damping` are the ones the
+    /// stage system was built with.
     pub(in crate::integrate) fn with_low_rank<S: MechanicalSystem + ?Sized>(
         mut self,
         system: &S,
-        stages: usize,
+        (mass, damping): (&SparseMatrix, Option<&SparseMatrix>),
+        method: &StageMethod,
     ) -> Self {
         let Some(dofs) = system.nonlinear_dofs() else {
             return self;
         };
-        if stages * dofs.len() > LOW_RANK_MAX {
+        if method.a.len() * dofs.len() > LOW_RANK_MAX {
             return self;
         }
         let mut rest = vec![0.0; self.tangent.nonzeros()];
@@ -117,8 +143,32 @@ impl SparseStages {
         self.low_rank = Some(LowRank {
             dofs: dofs.to_vec(),
             rest,
+            split: Self::split(&self.tangent, (mass, damping), method),
         });
         self
+    }
+
+    /// Whether the nonlinearity is localised (the stage systems are low-rank updates).
+    pub(in crate::integrate) fn is_low_rank(&self) -> bool {
+        self.low_rank.is_some()
+    }
+
+    /// `P` of eq. (32f) at the stage states (the split approximation of the exact stage
+    /// Jacobian, `split` made by [`Self::split`] on this system's pattern), with the tangents
+    /// it was built from; `None` when a split system is singular.
+    pub(in crate::integrate) fn factorise_split<S: MechanicalSystem + ?Sized>(
+        &self,
+        split: &SplitStages,
+        system: &S,
+        states: &[f64],
+        h: f64,
+    ) -> Option<(StageLu, StageTangents)> {
+        let tangents = self.tangents(system, states);
+        let lu = split.factorise(h, &tangents)?;
+        Some((
+            StageLu::Split(Arc::new(lu)),
+            StageTangents::Sparse(self.tangent.clone(), tangents),
+        ))
     }
 
     /// The linear part of the stage system at step `h`, factorised ([`LinearStages`]).
@@ -126,12 +176,19 @@ impl SparseStages {
         let abar = &method.abar;
         let s = abar.len();
         let n = self.tangent.row_start.len() - 1;
-        let rest: Vec<Vec<f64>> = vec![low_rank.rest.clone(); s];
-        let lu = self.lu.factorise(&self.damped_values(
-            |i, j| h * h * abar[i][j],
-            |i, j| h * method.a[i][j],
-            &rest,
-        ))?;
+        let lu = match &low_rank.split {
+            Some(split) => StageLu::Split(Arc::new(
+                split.factorise(h, std::slice::from_ref(&low_rank.rest))?,
+            )),
+            None => {
+                let rest: Vec<Vec<f64>> = vec![low_rank.rest.clone(); s];
+                StageLu::Sparse(self.lu.factorise(&self.damped_values(
+                    |i, j| h * h * abar[i][j],
+                    |i, j| h * method.a[i][j],
+                    &rest,
+                ))?)
+            }
+        };
         let (p, m) = (low_rank.dofs.len(), s * n);
         let sp = s * p;
         let mut z = vec![0.0; m * sp];
@@ -281,7 +338,12 @@ impl StageLu {
     }
 
     /// `J⁻¹ B` to round-off, `J` built from `tangents`: what the variational step needs.
-    pub(super) fn solve_exact(&self, b: &mut [f64], cols: usize, tangents: &StageTangents) {
+    pub(in crate::integrate) fn solve_exact(
+        &self,
+        b: &mut [f64],
+        cols: usize,
+        tangents: &StageTangents,
+    ) {
         match self {
             StageLu::Split(split) => {
                 split.solve_exact(b, cols, tangents);
@@ -298,22 +360,12 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
         system: &S,
         sparse: Option<&SparseStages>,
         mass: &SparseMatrix,
-        abar: &[Vec<f64>],
+        method: &StageMethod,
     ) -> Option<SplitStages> {
-        let pattern = system.tangent_pattern()?;
-        if sparse?.low_rank.is_some() {
+        if sparse?.is_low_rank() {
             return None;
         }
-        let single = SparseStages::new(pattern, mass, None, 1)?;
-        let entries = single.entries.iter().map(|e| (e.mass, e.slot)).collect();
-        let eigen = StageEigen::new(abar)?;
-        Some(SplitStages::new(
-            eigen,
-            single.lu,
-            entries,
-            mass.clone(),
-            abar,
-        ))
+        SparseStages::split(system.tangent_pattern()?, (mass, None), method)
     }
 
     /// Splits the stage systems whatever the model's size (tests of eq. (32f) on small ones).
@@ -323,7 +375,7 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
             self.form.system(),
             self.sparse.as_ref(),
             &self.mass,
-            &self.coefficients.abar,
+            &self.coefficients,
         );
         assert!(self.split.is_some(), "a sparse model, nonlinear everywhere");
         self
@@ -359,10 +411,9 @@ impl<S: MechanicalSystem + ?Sized> GaussLegendre<'_, S> {
                 .as_ref()
                 .filter(|_| split && sparse.low_rank.is_none())
             {
-                let tangents = sparse.tangents(system, states);
-                let lu = split.factorise(h, &tangents).ok_or_else(singular)?;
-                let tangents = StageTangents::Sparse(sparse.tangent.clone(), tangents);
-                return Ok((StageLu::Split(Arc::new(lu)), tangents));
+                return sparse
+                    .factorise_split(split, system, states, h)
+                    .ok_or_else(singular);
             }
             return sparse
                 .factorise(system, states, h, &self.coefficients, linear)

@@ -37,8 +37,9 @@ use std::sync::Arc;
 
 use super::{Drive, ForcedFlow, ForcedIntegrator, RecordedFlow, check_forced_request, phase_field};
 use crate::integrate::collocation::{
-    Collocation, CollocationLinearization, LinearStages, RecordedStep, SparseStages, StageLu,
-    StageMethod, StageTangents, VariationalBuffers, low_pass, variational_step,
+    Collocation, CollocationLinearization, LinearStages, RecordedStep, SPLIT_DOFS, SparseStages,
+    SplitStages, StageLu, StageMethod, StageTangents, VariationalBuffers, low_pass,
+    variational_step,
 };
 use crate::integrate::{IntegrationError, IntegrationStats, LinearizedFlow, Tolerances};
 use crate::linalg::{DenseLu, Mat};
@@ -104,8 +105,14 @@ pub struct ForcedCollocation<'s, 'a, S: MechanicalSystem + ?Sized> {
 
 /// How the stage system is assembled and factorised.
 enum Stages {
-    /// On the union of `M`'s, `C`'s and `K_t`'s patterns (shared with free collocation).
-    Sparse(SparseStages),
+    /// On the union of `M`'s, `C`'s and `K_t`'s patterns (shared with free collocation);
+    /// above [`SPLIT_DOFS`] dofs with a nonlinearity everywhere, also split into systems of
+    /// the model's size (eq. (32f)) for the integrations that carry no `Φ` columns: the
+    /// stage iteration's matrix, and the recorded steps' refined exact solves.
+    Sparse {
+        stages: SparseStages,
+        split: Option<SplitStages>,
+    },
     /// Dense, for systems that give no tangent pattern: `M` and `C` column-major `n × n`.
     Dense { mass: Vec<f64>, damping: Vec<f64> },
 }
@@ -139,6 +146,8 @@ struct Workspace {
     /// The relative update at which freshly factorised stage systems of this integration
     /// stalled: their round-off floor (0 until one has).
     floor: f64,
+    /// Whether this integration's stage systems are split (eq. (32f)).
+    split: bool,
 }
 
 impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
@@ -170,11 +179,18 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             (0..n * n).map(|k| m[(k % n, k / n)]).collect()
         };
         let inner = system.system();
+        let damped = (&mass, Some(system.damping()));
         let stages = match inner.tangent_pattern().and_then(|pattern| {
             SparseStages::new(pattern, &mass, Some(system.damping()), s)
-                .map(|stages| stages.with_low_rank(inner, s))
+                .map(|stages| stages.with_low_rank(inner, damped, &coefficients))
+                .map(|stages| (pattern, stages))
         }) {
-            Some(sparse) => Stages::Sparse(sparse),
+            Some((pattern, stages)) => {
+                let split = (system.dofs() > SPLIT_DOFS && !stages.is_low_rank())
+                    .then(|| SparseStages::split(pattern, damped, &coefficients))
+                    .flatten();
+                Stages::Sparse { stages, split }
+            }
             None => Stages::Dense {
                 mass: column_major(Matrix::Sparse(mass.clone()).to_dense()),
                 damping: column_major(Matrix::Sparse(system.damping().clone()).to_dense()),
@@ -193,6 +209,20 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             extrapolation,
             ws: Workspace::default(),
         }
+    }
+
+    /// Splits the stage systems whatever the model's size (tests of eq. (32f) on small ones).
+    #[cfg(test)]
+    pub(super) fn with_split_stages(mut self) -> Self {
+        let pattern = (self.system.system().tangent_pattern()).expect("a sparse model");
+        let damped = (&self.mass, Some(self.system.damping()));
+        let Stages::Sparse { stages, split } = &mut self.stages else {
+            panic!("a sparse model");
+        };
+        assert!(!stages.is_low_rank(), "a nonlinearity everywhere");
+        *split = SparseStages::split(pattern, damped, &self.coefficients);
+        assert!(split.is_some(), "Radau IIA's A is diagonalisable");
+        self
     }
 
     /// Equal steps a period in force.
@@ -234,8 +264,12 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         stats.tangent_evaluations += s;
         stats.factorisations += 1;
         let factorised = match &self.stages {
-            Stages::Sparse(sparse) => {
-                sparse.factorise(system, &ws.x, step, &self.coefficients, &mut ws.linear)
+            Stages::Sparse {
+                stages,
+                split: Some(split),
+            } if ws.split => stages.factorise_split(split, system, &ws.x, step),
+            Stages::Sparse { stages, .. } => {
+                stages.factorise(system, &ws.x, step, &self.coefficients, &mut ws.linear)
             }
             Stages::Dense { mass, damping } => {
                 let mut tangents = vec![0.0; s * n * n];
@@ -340,13 +374,15 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 .as_ref()
                 .expect("factorised above")
                 .solve_in_place(&mut ws.residual, 1);
-            let (mut update, mut size) = (0.0f64, 0.0f64);
+            let (mut update, mut size, mut finite) = (0.0f64, 0.0f64, true);
             for (wi, d) in ws.w.iter_mut().zip(&ws.residual) {
                 *wi += d;
                 update = update.max(d.abs());
                 size = size.max(wi.abs());
+                // `max` passes over a NaN: it is looked for entry by entry.
+                finite &= d.is_finite();
             }
-            if !update.is_finite() {
+            if !(finite && update.is_finite()) {
                 ws.w.clear();
                 ws.lu = None;
                 return Err(IntegrationError::NotFinite { t: tau / omega });
@@ -432,6 +468,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         ws.w.clear();
         ws.lu = None;
         ws.floor = 0.0;
+        ws.split = directions == 0;
         let mut buffers = VariationalBuffers::default();
         let mut result = Ok(());
         // The next state: every entry written each step, the buffer swapped with `z`.
@@ -579,7 +616,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         rhs.iter_mut().for_each(|e| *e /= -omega);
         lu.as_ref()
             .expect("an exact factorisation at the converged stages")
-            .solve_in_place(rhs, COLUMNS);
+            .solve_exact(rhs, COLUMNS, tangents);
         for c in 0..COLUMNS {
             let d_omega = if c == 0 { 1.0 } else { 0.0 };
             let dw = &rhs[c * size..(c + 1) * size];
@@ -644,7 +681,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
         drive: Drive,
         span: f64,
     ) -> Option<Result<RecordedFlow, IntegrationError>> {
-        if !matches!(self.stages, Stages::Sparse(_)) {
+        if !matches!(self.stages, Stages::Sparse { .. }) {
             return None;
         }
         let period = 2.0 * std::f64::consts::PI;
