@@ -100,6 +100,37 @@ pub(crate) fn is_odd<S: MechanicalSystem + ?Sized>(system: &S, amplitude: f64) -
     })
 }
 
+/// The signs `S` (on the displacements; the velocities alike) of a forced system's half-wave
+/// symmetric responses, `z(τ + π) = S z(τ)` (docs/method.md eq. (99b)): `−1` everywhere when
+/// the internal force is odd; otherwise a parity of the system under which the force is odd
+/// ([`parity_of`]: a von Kármán model driven in bending flips its transverse dofs and keeps
+/// its in-plane ones) and which the damping respects (`S C = C S`: `C` couples no dofs of
+/// opposite signs). `None` when neither holds: whole periods are shot.
+pub(crate) fn half_wave_signs<S: MechanicalSystem + ?Sized>(
+    system: &crate::model::ForcedSystem<'_, S>,
+    amplitude: f64,
+) -> Option<Vec<f64>> {
+    let n = system.dofs();
+    if is_odd(system.system(), amplitude) {
+        return Some(vec![-1.0; n]);
+    }
+    let force = system.force();
+    let shape: Vec<f64> = (force.cosine.iter().zip(&force.sine))
+        .map(|(c, s)| c.abs() + s.abs())
+        .collect();
+    let signs = parity_of(system.system(), &shape, amplitude)?;
+    let damping = system.damping();
+    let pattern = damping.pattern();
+    let commutes = (0..n).all(|r| {
+        let span = pattern.row_start[r]..pattern.row_start[r + 1];
+        (pattern.col[span.clone()]
+            .iter()
+            .zip(&damping.values()[span]))
+        .all(|(&c, &v)| v == 0.0 || signs[r] == signs[c])
+    });
+    commutes.then_some(signs)
+}
+
 /// A parity of the system under which `shape` is odd (docs/method.md eq. (9b)): the signs
 /// `s_i = −1` on every group of dofs that the linear `M` and `K_t(0)` couple to a dof where
 /// `shape` moves, `+1` on the others, when the internal force then commutes with `S = diag(s)`

@@ -318,15 +318,17 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         settings.samples.max(8),
         settings.continuation.tolerance,
     );
-    let half_period =
-        settings.half_period && crate::symmetry::is_odd(system.system(), scales.displacement);
+    let half_wave = settings
+        .half_period
+        .then(|| crate::symmetry::half_wave_signs(system, scales.displacement))
+        .flatten();
     let matrix_free = match settings.formulation {
         Formulation::MatrixFree => true,
         Formulation::Dense => false,
         Formulation::Auto => system.dofs() > MATRIX_FREE_DOFS,
     };
     let mut problem = problem
-        .with_half_period(half_period)
+        .with_half_period(half_wave)
         .with_matrix_free(matrix_free);
     let z0 = linear.response(drive.frequency, drive.amplitude);
     problem
@@ -419,7 +421,7 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         integrator: method.name(),
         output_dofs,
         phase_dof,
-        half_period,
+        half_period: problem.half_period(),
         stats: problem.work(),
         continuation: continuation_stats,
     })

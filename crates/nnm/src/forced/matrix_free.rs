@@ -37,8 +37,9 @@ const ARNOLDI_INVARIANT: f64 = 1e-10;
 /// The Jacobian of the forced shooting rows with respect to the scaled unknowns, as products.
 pub struct ForcedOperator {
     flow: Arc<dyn LinearizedFlow>,
-    /// `P` of the shot map: `+1` over a whole period, `−1` over half of one (eq. (99b)).
-    flip: f64,
+    /// `P` of the shot map, per state coordinate: `+1` over a whole period, the half-wave
+    /// symmetry's signs `S` over half of one (eq. (99b)).
+    flip: Vec<f64>,
     /// `D`: the scale of each state coordinate.
     scales: Vec<f64>,
     /// `∂rows/∂u_p`, the parameter's column.
@@ -59,12 +60,13 @@ impl std::fmt::Debug for ForcedOperator {
 
 impl ForcedOperator {
     /// The operator of one exact evaluation: the recorded `flow`, the shot map's sign
-    /// `flip`, the unknowns' `scales`, and the parameter's column of the Jacobian;
+    /// `flip` (per state coordinate), the unknowns' `scales`, and the parameter's column of
+    /// the Jacobian;
     /// `tolerance` the continuation's and `size` the unknowns' norm (the linear solves'
     /// floor).
     pub(super) fn new(
         flow: Arc<dyn LinearizedFlow>,
-        flip: f64,
+        flip: Vec<f64>,
         scales: Vec<f64>,
         parameter_column: Vec<f64>,
         tolerance: f64,
@@ -86,9 +88,9 @@ impl ForcedOperator {
         let d: Vec<f64> = y.iter().zip(&self.scales).map(|(y, s)| y * s).collect();
         self.flow.apply(&d, 1, out);
         self.products.fetch_add(1, Ordering::Relaxed);
-        out.iter_mut()
-            .zip(&self.scales)
-            .for_each(|(o, s)| *o *= self.flip / s);
+        for ((o, s), p) in out.iter_mut().zip(&self.scales).zip(&self.flip) {
+            *o *= p / s;
+        }
     }
 
     /// Solves the bordered system `[J; bᵀ] x = (rhs, c)` by GMRES, `J = [D⁻¹PΦD − I, ∂rows/∂u_p]`

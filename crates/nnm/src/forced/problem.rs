@@ -220,8 +220,10 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     rigid_pins: Vec<(Vec<f64>, f64)>,
     /// Multipliers at +1 that the rigid-body modes bring (one or two a mode).
     neutral_multipliers: usize,
-    /// Shoot over half the period, `−z(π) = z0` (an odd system: eq. (99b)).
-    half_period: bool,
+    /// Shoot over half the period, `S z(π) = z0` (eq. (99b)), with the signs `S` of the
+    /// displacements (the velocities alike): `−1` everywhere for an odd system, a parity's
+    /// (flip the transverse dofs, keep the in-plane ones) for a von Kármán model.
+    half_wave: Option<Vec<f64>>,
     /// The continuation's tolerance: below it, an evaluation is made exact.
     tolerance: f64,
     /// Newton corrections by GMRES and multipliers by Arnoldi on the recorded flow (eq.
@@ -264,7 +266,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             samples,
             rigid_pins: Vec::new(),
             neutral_multipliers: 0,
-            half_period: false,
+            half_wave: None,
             tolerance,
             matrix_free: false,
             products: Arc::default(),
@@ -307,11 +309,13 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             .collect();
     }
 
-    /// Shoots over half the forcing period, `−z(π; z0) = z0` (eq. (99b)): valid when the
-    /// internal force is odd, as the harmonic force is (`F(τ + π) = −F(τ)`), and the
-    /// response is half-wave symmetric; halves every integration.
-    pub fn with_half_period(mut self, half_period: bool) -> Self {
-        self.half_period = half_period;
+    /// Shoots over half the forcing period, `S z(π; z0) = z0` (eq. (99b)), `signs` the
+    /// diagonal of `S` on the displacements: valid when `S` is a symmetry of the system
+    /// (`f_int(S x) = S f_int(x)`, `S M = M S`, `S C = C S`) under which the force is odd,
+    /// `S F = −F` (as `F(τ + π) = −F(τ)`), and the response is half-wave symmetric; halves
+    /// every integration. `None`: whole periods.
+    pub fn with_half_period(mut self, signs: Option<Vec<f64>>) -> Self {
+        self.half_wave = signs;
         self
     }
 
@@ -338,7 +342,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
 
     /// Whether it shoots over half the period.
     pub fn half_period(&self) -> bool {
-        self.half_period
+        self.half_wave.is_some()
     }
 
     /// The sweep.
@@ -397,8 +401,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
         let n = self.system.dofs();
         let count = self.samples;
         // A half-wave symmetric motion's second half is the first's negative: not integrated.
-        let states = if self.half_period && count % 2 == 0 {
-            sample_half_wave(self.integrator.as_mut(), z0, drive, count)?
+        let states = if let Some(signs) = self.half_wave.as_ref().filter(|_| count % 2 == 0) {
+            sample_half_wave(self.integrator.as_mut(), z0, drive, count, signs)?
         } else {
             sample(self.integrator.as_mut(), z0, drive, count)?
         };
@@ -448,16 +452,21 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
 impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
     /// The horizon shot: the forcing period, or half of it (eq. (99b)).
     fn span(&self) -> f64 {
-        if self.half_period {
+        if self.half_wave.is_some() {
             std::f64::consts::PI
         } else {
             2.0 * std::f64::consts::PI
         }
     }
 
-    /// `P`: the state map after the horizon, `−1` over half a period, `+1` over a whole one.
-    fn flip(&self) -> f64 {
-        if self.half_period { -1.0 } else { 1.0 }
+    /// `P`, the state map after the horizon, per state coordinate: the half-wave symmetry's
+    /// signs over half a period, `+1` over a whole one.
+    fn flip(&self) -> Vec<f64> {
+        let n2 = 2 * self.system.dofs();
+        match &self.half_wave {
+            Some(signs) => signs.iter().cycle().take(n2).copied().collect(),
+            None => vec![1.0; n2],
+        }
     }
 
     /// `D (P z(span) − z0)` and the rigid-body offset rows.
@@ -465,7 +474,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         let n = self.system.dofs();
         let flip = self.flip();
         (0..2 * n)
-            .map(|i| (flip * end[i] - z0[i]) / self.scale_of(i))
+            .map(|i| (flip[i] * end[i] - z0[i]) / self.scale_of(i))
             .chain(
                 self.rigid_pins
                     .iter()
@@ -514,7 +523,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         let flow = self.integrator.flow(&z0, drive, self.span(), true)?;
         let (rows, relative_residual) = self.residual_of(u, &z0, &flow, true);
         let flip = self.flip();
-        let phi = |i: usize, j: usize| flip * flow.sensitivity[j * n2 + i];
+        let phi = |i: usize, j: usize| flip[i] * flow.sensitivity[j * n2 + i];
         let parameter_column = match self.sweep {
             Sweep::Frequency { .. } => n2,
             Sweep::Amplitude { .. } => n2 + 1,
@@ -567,7 +576,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         let scales: Vec<f64> = (0..n2).map(|i| self.scale_of(i)).collect();
         let parameter_column = (0..n2)
             .map(|i| {
-                flip * flow.sensitivity[parameter * n2 + i] * self.scales.parameter / scales[i]
+                flip[i] * flow.sensitivity[parameter * n2 + i] * self.scales.parameter / scales[i]
             })
             .collect();
         let size = linalg::norm(&u[..n2]);
@@ -659,7 +668,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
             Some(operator) => operator.shot_map_eigenvalues()?,
             None => linalg::eigenvalues(evaluation.monodromy.as_ref())?,
         };
-        if self.half_period {
+        if self.half_wave.is_some() {
             // The monodromy is the half map's derivative squared (eq. (101a)).
             multipliers = multipliers
                 .iter()

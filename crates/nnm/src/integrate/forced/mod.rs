@@ -143,17 +143,26 @@ pub fn sample(
     sample_pieces(integrator, z0, drive, count, count)
 }
 
-/// [`sample`] of a half-wave symmetric motion, `z(τ + π) = −z(τ)` (eq. (99b)): the first
-/// half of the period integrated, the second its negative. `count` must be even.
+/// [`sample`] of a half-wave symmetric motion, `z(τ + π) = S z(τ)` (eq. (99b); `signs` the
+/// diagonal of `S` on the displacements, the velocities alike): the first half of the period
+/// integrated, the second its image. `count` must be even.
 pub fn sample_half_wave(
     integrator: &mut dyn ForcedIntegrator,
     z0: &[f64],
     drive: Drive,
     count: usize,
+    signs: &[f64],
 ) -> Result<Vec<Vec<f64>>, IntegrationError> {
     assert!(count % 2 == 0, "an even sample count");
     let mut out = sample_pieces(integrator, z0, drive, count, count / 2)?;
-    let mirrored: Vec<Vec<f64>> = out.iter().map(|z| z.iter().map(|v| -v).collect()).collect();
+    let mirrored: Vec<Vec<f64>> = (out.iter())
+        .map(|z| {
+            z.iter()
+                .zip(signs.iter().cycle())
+                .map(|(v, s)| s * v)
+                .collect()
+        })
+        .collect();
     out.extend(mirrored);
     Ok(out)
 }
