@@ -24,6 +24,10 @@ use crate::integrate::forced::{Drive, ForcedFlow, ForcedIntegrator, sample, samp
 use crate::linalg::{self, Complex, Mat};
 use crate::model::{ForcedSystem, MechanicalSystem};
 
+/// Matrix-free analyses resolve the Floquet multipliers of at least this modulus (and all of
+/// them when none is): the ones that can cross the unit circle between two points.
+const MULTIPLIER_FLOOR: f64 = 0.1;
+
 /// What a curve is continued in.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Sweep {
@@ -665,7 +669,16 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
         detail: Detail,
     ) -> Result<ResponsePoint, ForcedError> {
         let mut multipliers = match &evaluation.operator {
-            Some(operator) => operator.shot_map_eigenvalues()?,
+            Some(operator) => {
+                // Multipliers below a tenth in modulus take part in no crossing of the unit
+                // circle; over half a period the shot map's eigenvalues are their roots.
+                let floor = if self.half_wave.is_some() {
+                    MULTIPLIER_FLOOR.sqrt()
+                } else {
+                    MULTIPLIER_FLOOR
+                };
+                operator.shot_map_eigenvalues(floor)?
+            }
             None => linalg::eigenvalues(evaluation.monodromy.as_ref())?,
         };
         if self.half_wave.is_some() {
