@@ -528,15 +528,31 @@ fn von_karman_half_wave_parity_equals_whole_periods() {
         }
     }
     for c in [&half, &whole, &matrix_free] {
-        let (first, second) = (c.events[0].point.index, c.events[1].point.index);
+        let fold_points: Vec<usize> = (c.events.iter())
+            .filter(|e| e.kind == ResponseEventKind::Fold)
+            .map(|e| e.point.index)
+            .collect();
+        let (first, second) = (fold_points[0], fold_points[1]);
         for (k, point) in c.points.iter().enumerate() {
             let middle = k > first && k <= second;
             assert_eq!(point.stable, !middle, "point {k} of {}", c.points.len());
         }
     }
+    // The motions sampled over half a period and mirrored by the parity: the same peak and
+    // first harmonic at the sweep's end as sampled over the whole one.
     let q = whole.points.last().unwrap();
     for c in [&half, &matrix_free] {
         let p = c.points.last().unwrap();
+        assert!(
+            (p.peaks[0] - q.peaks[0]).abs() < 1e-7 * q.peaks[0]
+                && (p.harmonic_amplitude - q.harmonic_amplitude).abs()
+                    < 1e-7 * q.harmonic_amplitude,
+            "peak {} and first harmonic {} vs {} and {}",
+            p.peaks[0],
+            p.harmonic_amplitude,
+            q.peaks[0],
+            q.harmonic_amplitude
+        );
         assert!(
             (p.max_floquet_modulus - q.max_floquet_modulus).abs() < 1e-7,
             "{} vs {}",

@@ -39,8 +39,9 @@ pub struct ResponseSettings {
     pub events: bool,
     /// Largest number of points (default 2000).
     pub max_points: usize,
-    /// Shoot over half the forcing period when the internal force is odd (default true;
-    /// docs/method.md eq. (99b)): halves every integration; the multipliers are the half
+    /// Shoot over half the forcing period when the response is half-wave symmetric — the
+    /// internal force odd, or a parity of the model under which the force is odd (default
+    /// true; docs/method.md eq. (99b)): halves every integration; the multipliers are the half
     /// map's squared, the full-period symmetry-breaking ones included.
     pub half_period: bool,
     /// Samples of a period for the peaks and the first harmonic (default 32: the first

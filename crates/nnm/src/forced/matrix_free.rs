@@ -115,9 +115,9 @@ impl ForcedOperator {
     }
 
     /// The eigenvalues of modulus at least `floor` of the shot map `P Φ(span)` (over half a
-    /// period, the multipliers' square roots, eq. (101a)), by an Arnoldi process until each
+    /// period, the multipliers' square roots, eq. (99b)), by an Arnoldi process until each
     /// has converged to [`ARNOLDI_INVARIANT`] — or, when the space becomes invariant first,
-    /// every eigenvalue. Why not always to invariance: a lightly damped mesh has dozens of
+    /// every eigenvalue (at [`MAX_ARNOLDI`] steps: every Ritz value, converged or not). Why not always to invariance: a lightly damped mesh has dozens of
     /// multipliers between 1e-10 and the floor (the 200-element von Kármán beam: ~30), which
     /// cannot take part in a crossing of the unit circle but cost a product each. Why a fixed
     /// mixture of every coordinate as the start: it reaches every mode.

@@ -88,7 +88,7 @@ pub struct ForcedEvaluation {
     /// `∂(D H)/∂u` and the offset rows, `(2n + r) × (2n + 1)`.
     pub jacobian: Mat<f64>,
     /// The derivative `P Φ(span)` of the shot map (the monodromy `Φ(2π)` over a whole
-    /// period; over half of one, its square root `−Φ(π)`), unscaled (empty on a chord
+    /// period; over half of one, its square root `S Φ(π)`), unscaled (empty on a chord
     /// evaluation).
     pub monodromy: Mat<f64>,
     /// The Jacobian as products (matrix-free shooting, eq. (102a)), in place of `jacobian`
@@ -224,9 +224,10 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     rigid_pins: Vec<(Vec<f64>, f64)>,
     /// Multipliers at +1 that the rigid-body modes bring (one or two a mode).
     neutral_multipliers: usize,
-    /// Shoot over half the period, `S z(π) = z0` (eq. (99b)), with the signs `S` of the
-    /// displacements (the velocities alike): `−1` everywhere for an odd system, a parity's
-    /// (flip the transverse dofs, keep the in-plane ones) for a von Kármán model.
+    /// Shoot over half the period, `S z(π) = z0` (eq. (99b)), with the signs `S` of the state
+    /// (`2n`, the velocities' those of their displacements): `−1` everywhere for an odd
+    /// system, a parity's (flip the transverse dofs, keep the in-plane ones) for a von Kármán
+    /// model.
     half_wave: Option<Vec<f64>>,
     /// The continuation's tolerance: below it, an evaluation is made exact.
     tolerance: f64,
@@ -319,7 +320,12 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     /// `S F = −F` (as `F(τ + π) = −F(τ)`), and the response is half-wave symmetric; halves
     /// every integration. `None`: whole periods.
     pub fn with_half_period(mut self, signs: Option<Vec<f64>>) -> Self {
-        self.half_wave = signs;
+        let n = self.system.dofs();
+        if let Some(signs) = &signs {
+            assert_eq!(signs.len(), n, "one sign a displacement");
+        }
+        // On the state: the velocities take their displacements' signs.
+        self.half_wave = signs.map(|s| s.iter().chain(&s).copied().collect());
         self
     }
 
@@ -404,7 +410,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     ) -> Result<(Vec<f64>, f64, f64), ForcedError> {
         let n = self.system.dofs();
         let count = self.samples;
-        // A half-wave symmetric motion's second half is the first's negative: not integrated.
+        // A half-wave symmetric motion's second half is the first's image `S z`: not
+        // integrated.
         let states = if let Some(signs) = self.half_wave.as_ref().filter(|_| count % 2 == 0) {
             sample_half_wave(self.integrator.as_mut(), z0, drive, count, signs)?
         } else {
@@ -466,10 +473,9 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
     /// `P`, the state map after the horizon, per state coordinate: the half-wave symmetry's
     /// signs over half a period, `+1` over a whole one.
     fn flip(&self) -> Vec<f64> {
-        let n2 = 2 * self.system.dofs();
         match &self.half_wave {
-            Some(signs) => signs.iter().cycle().take(n2).copied().collect(),
-            None => vec![1.0; n2],
+            Some(signs) => signs.clone(),
+            None => vec![1.0; 2 * self.system.dofs()],
         }
     }
 
@@ -682,7 +688,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
             None => linalg::eigenvalues(evaluation.monodromy.as_ref())?,
         };
         if self.half_wave.is_some() {
-            // The monodromy is the half map's derivative squared (eq. (101a)).
+            // The monodromy is the half map's derivative squared (eq. (99b)).
             multipliers = multipliers
                 .iter()
                 .map(|&(re, im)| (re * re - im * im, 2.0 * re * im))

@@ -3,7 +3,7 @@
 //! linear part of a localised nonlinearity's, eq. (32e)), and as the preconditioner of exact
 //! solves for large sparse models whose nonlinearity is everywhere.
 //!
-//! **Why.** The exact stage Jacobian `J = I⊗M + h (A⊗C) + h² (Ā⊗I) diag(K_t(X_i))` (`C` a
+//! **Why.** The exact stage Jacobian `J = I⊗M + h (A⊗C) + h² diag(K_t(X_i)) (Ā⊗I)` (`C` a
 //! forced motion's damping, eq. (96); none for free motions) is `s n × s n`; its sparse LU
 //! with partial pivoting fills like a band of `2 s` times the model's: on the 10⁴-dof von
 //! Kármán beam one factorisation took 26.7 ms and 21 MB, and a matrix-free integration
@@ -21,7 +21,7 @@
 //! which must be exact, so that the monodromy is the derivative of the discrete flow that
 //! shooting's Newton solves — are iterated to round-off with `P` as preconditioner:
 //! `dW ← dW + P⁻¹ (b − J dW)`, with `J`'s action from the stage tangents themselves.
-//! `P⁻¹ J − I = P⁻¹ h² (Ā⊗I) diag(K_t(X_i) − K̄)` is the change of the tangent within one
+//! `P⁻¹ J − I = P⁻¹ h² diag(K_t(X_i) − K̄) (Ā⊗I)` is the change of the tangent within one
 //! step relative to the stage matrix, small wherever the step resolves the motion.
 
 use std::sync::Arc;
@@ -182,7 +182,7 @@ impl SplitStages {
     }
 }
 
-/// The scalars of the split systems: `f64` for a real eigenvalue of `Ā`, `c64` for a pair.
+/// The scalars of the split systems: `f64` for a real eigenvalue of `A`, `c64` for a pair.
 trait SplitScalar:
     faer::traits::ComplexField
     + Copy
@@ -209,7 +209,7 @@ impl SplitScalar for c64 {
 }
 
 /// One split system's share of `P⁻¹ b` added to `out` (`cols` columns of `s n`): `u = Σ_i
-/// T⁻¹_ji b_i`, `(M + h² λ_j K̄) y = u`, `out_i += weight · Re(T_ij y)`.
+/// T⁻¹_ji b_i`, `(M + h λ_j C + h² λ_j² K̄) y = u`, `out_i += weight · Re(T_ij y)`.
 fn split_solve<T: SplitScalar>(
     lu: &SparseLu<T>,
     (t, tinv): (&[T], &[T]),

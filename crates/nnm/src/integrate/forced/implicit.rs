@@ -414,11 +414,14 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             // A factorisation that stops contracting is renewed at the current stages: a
             // stale one, or one made this step at a first iterate too far from the stages
             // (a long step of a stiff model from the field: the von Kármán beam's membrane
-            // at 32 steps a period diverged from it).
+            // at 32 steps a period diverged from it). The renewed one's first update is not
+            // measured against the old one's.
             if update > 0.5 * previous_update {
                 ws.lu = None;
+                previous_update = f64::INFINITY;
+            } else {
+                previous_update = update;
             }
-            previous_update = update;
         }
         ws.w.clear();
         ws.lu = None;

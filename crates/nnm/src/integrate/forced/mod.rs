@@ -144,8 +144,8 @@ pub fn sample(
 }
 
 /// [`sample`] of a half-wave symmetric motion, `z(τ + π) = S z(τ)` (eq. (99b); `signs` the
-/// diagonal of `S` on the displacements, the velocities alike): the first half of the period
-/// integrated, the second its image. `count` must be even.
+/// diagonal of `S`, `2n`): the first half of the period integrated, the second its image.
+/// `count` must be even.
 pub fn sample_half_wave(
     integrator: &mut dyn ForcedIntegrator,
     z0: &[f64],
@@ -156,12 +156,7 @@ pub fn sample_half_wave(
     assert!(count % 2 == 0, "an even sample count");
     let mut out = sample_pieces(integrator, z0, drive, count, count / 2)?;
     let mirrored: Vec<Vec<f64>> = (out.iter())
-        .map(|z| {
-            z.iter()
-                .zip(signs.iter().cycle())
-                .map(|(v, s)| s * v)
-                .collect()
-        })
+        .map(|z| z.iter().zip(signs).map(|(v, s)| s * v).collect())
         .collect();
     out.extend(mirrored);
     Ok(out)
