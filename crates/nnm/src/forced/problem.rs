@@ -523,6 +523,10 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         let n = n2 / 2;
         let (z0, p) = self.state(u);
         let drive = self.sweep.drive(p);
+        // The last chord is replaced below: released first, so that two recorded flows (or
+        // two dense Jacobians) are not held at once — on the 1,000-element von Kármán beam a
+        // recorded flow is ~0.4 GB.
+        self.chord = None;
         if self.matrix_free() {
             let span = self.span();
             if let Some(linearized) = self.integrator.flow_linearized(&z0, drive, span) {
