@@ -4,9 +4,8 @@
 
 use std::sync::Arc;
 
-use super::split::SplitStages;
-use super::stages::StageLu;
-use crate::linalg::{DenseLu, Mat};
+use super::split::{SplitLu, SplitStages};
+use crate::linalg::{DenseLu, Mat, SparseLu};
 use crate::model::MechanicalSystem;
 
 /// Most nonlinear unknowns `s p` (stages × nonlinear dofs) for which the stage system is
@@ -36,13 +35,30 @@ pub(super) struct LowRank {
 /// size, shared by every step (and every recorded step) of an integration.
 pub(in crate::integrate) struct LinearStages {
     pub(super) h: f64,
-    pub(super) lu: StageLu,
+    pub(super) lu: LinearLu,
     pub(super) z: Vec<f64>,
     pub(super) vtz: Vec<f64>,
     /// `h² Ā`, row-major `s × s`.
     pub(super) hh_abar: Vec<f64>,
     pub(super) dofs: Vec<usize>,
     pub(super) n: usize,
+}
+
+/// The linear part's factorisation: split exactly (eq. (32f)), or whole when the method's
+/// `A` has no eigenbasis to split by.
+pub(super) enum LinearLu {
+    Split(SplitLu),
+    Whole(SparseLu),
+}
+
+impl LinearLu {
+    /// `J_lin⁻¹ B` in place for `cols` columns.
+    pub(super) fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+        match self {
+            LinearLu::Split(split) => split.solve_in_place(b, cols),
+            LinearLu::Whole(lu) => lu.solve_in_place(b, cols),
+        }
+    }
 }
 
 impl LinearStages {

@@ -28,7 +28,7 @@ use std::sync::Arc;
 
 use faer::c64;
 
-use super::stages::{StageEntry, StageMethod};
+use super::tableaux::StageMethod;
 use super::tangents::StageTangents;
 use crate::linalg::{Mat, SparseLu, SparseLuPattern};
 use crate::model::SparseMatrix;
@@ -110,8 +110,9 @@ impl StageEigen {
 pub(in crate::integrate) struct SplitStages {
     eigen: Arc<StageEigen>,
     lu: SparseLuPattern,
-    /// The single-stage pattern's entries (`M`'s, `C`'s and `K_t`'s union).
-    entries: Vec<StageEntry>,
+    /// The single-stage pattern's entries (`M`'s, `C`'s and `K_t`'s union) in
+    /// compressed-column order: their `M` and `C` values and their positions in `K_t`'s.
+    entries: Vec<(f64, f64, Option<usize>)>,
     mass: Arc<SparseMatrix>,
     /// A forced motion's damping `C`; `None` for free motions.
     damping: Option<Arc<SparseMatrix>>,
@@ -126,7 +127,7 @@ impl SplitStages {
     pub(super) fn new(
         eigen: StageEigen,
         lu: SparseLuPattern,
-        entries: Vec<StageEntry>,
+        entries: Vec<(f64, f64, Option<usize>)>,
         (mass, damping): (&SparseMatrix, Option<&SparseMatrix>),
         method: &StageMethod,
     ) -> Self {
@@ -152,8 +153,8 @@ impl SplitStages {
         let hhll = hl * hl;
         self.entries
             .iter()
-            .map(|e| {
-                T::from(e.mass) + hl * e.damping + e.slot.map_or(T::default(), |p| hhll * mean(p))
+            .map(|&(mass, damping, slot)| {
+                T::from(mass) + hl * damping + slot.map_or(T::default(), |p| hhll * mean(p))
             })
             .collect()
     }

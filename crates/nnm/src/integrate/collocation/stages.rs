@@ -6,10 +6,11 @@
 
 use std::sync::Arc;
 
-use super::low_rank::{LOW_RANK_MAX, LinearStages, LowRank, UpdatedStages};
+use super::low_rank::{LOW_RANK_MAX, LinearLu, LinearStages, LowRank, UpdatedStages};
 use super::split::{SplitLu, SplitStages, StageEigen};
+use super::tableaux::StageMethod;
 use super::tangents::StageTangents;
-use super::{Collocation, GaussLegendre};
+use super::GaussLegendre;
 use crate::integrate::IntegrationError;
 use crate::linalg::{DenseLu, Mat, SparseLu, SparseLuPattern};
 use crate::model::{Block, BlockMut, MechanicalSystem, SparseMatrix, SparsityPattern};
@@ -31,14 +32,14 @@ pub(in crate::integrate) struct SparseStages {
 
 /// Where one entry of the stage Jacobian takes its value from.
 #[derive(Clone, Copy)]
-pub(super) struct StageEntry {
+struct StageEntry {
     /// Its block row and column `(i, j)`.
     block: (usize, usize),
     /// `M`'s entry (diagonal blocks only) and `C`'s at its place in the block.
-    pub(super) mass: f64,
-    pub(super) damping: f64,
+    mass: f64,
+    damping: f64,
     /// Its position in `K_t`'s values, if the tangent's pattern has it.
-    pub(super) slot: Option<usize>,
+    slot: Option<usize>,
 }
 
 impl SparseStages {
@@ -116,7 +117,9 @@ impl SparseStages {
         Some(SplitStages::new(
             StageEigen::new(&method.a)?,
             single.lu,
-            single.entries,
+            (single.entries.iter())
+                .map(|e| (e.mass, e.damping, e.slot))
+                .collect(),
             (mass, damping),
             method,
         ))
@@ -177,12 +180,12 @@ impl SparseStages {
         let s = abar.len();
         let n = self.tangent.row_start.len() - 1;
         let lu = match &low_rank.split {
-            Some(split) => StageLu::Split(Arc::new(
-                split.factorise(h, std::slice::from_ref(&low_rank.rest))?,
-            )),
+            Some(split) => {
+                LinearLu::Split(split.factorise(h, std::slice::from_ref(&low_rank.rest))?)
+            }
             None => {
                 let rest: Vec<Vec<f64>> = vec![low_rank.rest.clone(); s];
-                StageLu::Sparse(self.lu.factorise(&self.damped_values(
+                LinearLu::Whole(self.lu.factorise(&self.damped_values(
                     |i, j| h * h * abar[i][j],
                     |i, j| h * method.a[i][j],
                     &rest,
@@ -292,28 +295,6 @@ impl SparseStages {
             }
         };
         Some((lu, StageTangents::Sparse(self.tangent.clone(), tangents)))
-    }
-}
-
-/// A collocation method's coefficients as the stage system uses them: `A` and `Ā = A²`, by
-/// rows.
-pub(in crate::integrate) struct StageMethod {
-    pub(in crate::integrate) a: Vec<Vec<f64>>,
-    pub(in crate::integrate) abar: Vec<Vec<f64>>,
-}
-
-impl StageMethod {
-    pub(in crate::integrate) fn new(method: &Collocation) -> Self {
-        let a: Vec<Vec<f64>> = method.a.iter().map(|row| row.to_vec()).collect();
-        let s = a.len();
-        let abar = (0..s)
-            .map(|i| {
-                (0..s)
-                    .map(|j| (0..s).map(|l| a[i][l] * a[l][j]).sum())
-                    .collect()
-            })
-            .collect();
-        Self { a, abar }
     }
 }
 

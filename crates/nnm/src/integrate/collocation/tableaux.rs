@@ -72,3 +72,25 @@ pub static RADAU5: Collocation = Collocation {
     ],
     b: &[0.37640306270046725, 0.5124858261884216, 0.1111111111111111],
 };
+
+/// A collocation method's coefficients as the stage system uses them: `A` and `Ā = A²`, by
+/// rows.
+pub(in crate::integrate) struct StageMethod {
+    pub(in crate::integrate) a: Vec<Vec<f64>>,
+    pub(in crate::integrate) abar: Vec<Vec<f64>>,
+}
+
+impl StageMethod {
+    pub(in crate::integrate) fn new(method: &Collocation) -> Self {
+        let a: Vec<Vec<f64>> = method.a.iter().map(|row| row.to_vec()).collect();
+        let s = a.len();
+        let abar = (0..s)
+            .map(|i| {
+                (0..s)
+                    .map(|j| (0..s).map(|l| a[i][l] * a[l][j]).sum())
+                    .collect()
+            })
+            .collect();
+        Self { a, abar }
+    }
+}
