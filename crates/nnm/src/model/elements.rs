@@ -1,6 +1,6 @@
 //! The catalogue of nonlinear elements.
 
-use super::{Block, BlockMut, FixedDofs, NonlinearElement};
+use super::{Block, BlockMut, FixedDofs, NonlinearElement, PolynomialTerms};
 
 /// A polynomial spring `f = c (x_i - x_j)^p` acting on dof `i`, with the opposite force on
 /// dof `j` (or tied to ground when `j` is `None`). `p = 3` is the cubic spring of the paper;
@@ -58,6 +58,30 @@ impl PolynomialSpring {
     fn stretch(&self, x: &[f64]) -> f64 {
         x[self.i] - self.j.map_or(0.0, |j| x[j])
     }
+
+    /// `c (x_i − x_j)^N` expanded into monomials (eq. (5)): one product per choice of a
+    /// term of each of the `N` factors `(x_i − x_j)`, `(i, +1)` or `(j, −1)`, its coefficient
+    /// `c` times the signs chosen. The same monomial comes several times (`x_i² x_j` three
+    /// times for `N = 3`); [`PolynomialTerms::summed`] adds them up.
+    fn expanded<const N: usize>(&self) -> Vec<([usize; N], f64)> {
+        let ends: Vec<(usize, f64)> = std::iter::once((self.i, 1.0))
+            .chain(self.j.map(|j| (j, -1.0)))
+            .collect();
+        let choices = ends.len().pow(N as u32);
+        (0..choices)
+            .map(|mut choice| {
+                let mut t = [0; N];
+                let mut c = self.coefficient;
+                for slot in t.iter_mut() {
+                    let (dof, sign) = ends[choice % ends.len()];
+                    choice /= ends.len();
+                    *slot = dof;
+                    c *= sign;
+                }
+                (t, c)
+            })
+            .collect()
+    }
 }
 
 /// `d^p`, bitwise equal to `d.powi(p)` (the same product by squaring), with the small
@@ -112,6 +136,34 @@ impl NonlinearElement for PolynomialSpring {
         self.coefficient * power(self.stretch(x), p + 1) / (p + 1) as f64
     }
 
+    /// The force `c dᵖ` on `i` and `−c dᵖ` on `j` as terms, for `p = 2` (quadratic) and `p = 3`
+    /// (cubic); other exponents are not of the degrees a tensor holds.
+    fn polynomial_terms(&self) -> Option<PolynomialTerms> {
+        fn rows<const N: usize>(
+            s: &PolynomialSpring,
+            monomials: Vec<([usize; N], f64)>,
+        ) -> Vec<(usize, [usize; N], f64)> {
+            let rows: Vec<(usize, f64)> = std::iter::once((s.i, 1.0))
+                .chain(s.j.map(|j| (j, -1.0)))
+                .collect();
+            rows.iter()
+                .flat_map(|&(i, sign)| monomials.iter().map(move |&(t, c)| (i, t, sign * c)))
+                .collect()
+        }
+        let terms = match self.exponent {
+            2 => PolynomialTerms {
+                quadratic: rows(self, self.expanded::<2>()),
+                cubic: Vec::new(),
+            },
+            3 => PolynomialTerms {
+                quadratic: Vec::new(),
+                cubic: rows(self, self.expanded::<3>()),
+            },
+            _ => return None,
+        };
+        Some(terms.summed())
+    }
+
     fn dofs_used(&self) -> Vec<usize> {
         std::iter::once(self.i).chain(self.j).collect()
     }
@@ -132,6 +184,37 @@ mod tests {
                 assert_eq!(power(d, p).to_bits(), db.powi(pb).to_bits(), "{d}^{p}");
             }
         }
+    }
+
+    /// The expanded terms give the spring's own force, read back as a tensor (which also checks
+    /// that they are a gradient, eq. (59)), for both ends free and to ground, at states where
+    /// the stretch has either sign; a quintic spring has no such terms.
+    #[test]
+    fn polynomial_terms_give_the_force() {
+        for (p, j) in [(2, Some(2)), (3, Some(0)), (2, None), (3, None)] {
+            let e = PolynomialSpring::new(1, j, -1.7, p);
+            let terms = e.polynomial_terms().expect("degree 2 or 3");
+            let expected = if j.is_some() { 2 * (p as usize + 1) } else { 1 };
+            let count = terms.quadratic.len() + terms.cubic.len();
+            assert_eq!(count, expected, "one term per monomial and row, p = {p}");
+            let tensor = terms.into_tensor(3).expect("a gradient");
+            for x in [[0.3, -1.1, 0.8], [-2.0, 0.25, 0.5], [1.0, 1.0, -1.0]] {
+                let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
+                e.add_force(&x, &mut a);
+                tensor.add_force(&x, &mut b);
+                // Round-off of the expanded sum: a few ulps of its largest monomial.
+                let reach = x[1].abs() + j.map_or(0.0, |j| x[j].abs());
+                let scale = 1.7 * reach.powi(p as i32);
+                for (a, b) in a.iter().zip(&b) {
+                    assert!((a - b).abs() <= 1e-14 * scale, "p={p}: {a} vs {b}");
+                }
+            }
+        }
+        assert!(
+            PolynomialSpring::new(0, Some(1), 1.0, 5)
+                .polynomial_terms()
+                .is_none()
+        );
     }
 
     #[test]

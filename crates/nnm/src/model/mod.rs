@@ -37,7 +37,7 @@ pub use forcing::{ForcedSystem, HarmonicForce};
 pub use mass::{Mass, MassNotPositiveDefinite, MassOperator, dense_mass_matrix, mass_entries};
 pub use matrix::{Matrix, SparseMatrix, SparsityPattern};
 pub use structure::{CyclicSymmetry, ModelError, Structure};
-pub use tensor::{PolynomialTensor, TensorError};
+pub use tensor::{PolynomialTensor, PolynomialTerms, TensorError};
 pub use von_karman::VonKarmanBeam;
 
 /// A conservative structure `M x'' + f_int(x) = 0` (docs/method.md eqs. (1), (3)).
@@ -170,6 +170,14 @@ pub trait NonlinearElement: Send + Sync + std::fmt::Debug {
     }
     /// The element's potential energy `V_e(x)`.
     fn potential(&self, x: &[f64]) -> f64;
+    /// Optional: the force as exact quadratic and cubic terms in global dofs
+    /// (docs/method.md eq. (57)), when it is such a polynomial — what a finite-element code
+    /// exports and a [`PolynomialTensor`] reads back, so that `nnm export` can write a model as
+    /// files. `None` (the default): not a polynomial of degrees 2 and 3, or not known to be.
+    /// The terms must give [`Self::add_force`] up to round-off.
+    fn polynomial_terms(&self) -> Option<PolynomialTerms> {
+        None
+    }
     /// The degrees of freedom the element touches (for validation against the model size).
     fn dofs_used(&self) -> Vec<usize>;
 }

@@ -25,6 +25,69 @@ pub struct PolynomialTensor {
     pattern: Vec<(usize, usize)>,
 }
 
+/// A force given term by term in global dofs (0-based; docs/method.md eq. (57)):
+/// `f_i += c x_j x_k` for each quadratic term `(i, [j, k], c)` and `f_i += c x_j x_k x_l` for
+/// each cubic term `(i, [j, k, l], c)`, a position repeated adding up. What
+/// [`NonlinearElement::polynomial_terms`] gives and a [`PolynomialTensor`] is built from: the
+/// form in which a model's nonlinear force is written to term files (`nnm export`) and read
+/// back by a `tensor` element.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PolynomialTerms {
+    /// `(i, [j, k], c)`: `f_i += c x_j x_k`.
+    pub quadratic: Vec<(usize, [usize; 2], f64)>,
+    /// `(i, [j, k, l], c)`: `f_i += c x_j x_k x_l`.
+    pub cubic: Vec<(usize, [usize; 3], f64)>,
+}
+
+impl PolynomialTerms {
+    /// Adds `other`'s terms to these (the forces add up).
+    pub fn append(&mut self, mut other: PolynomialTerms) {
+        self.quadratic.append(&mut other.quadratic);
+        self.cubic.append(&mut other.cubic);
+    }
+
+    /// The same force with one term per position: the trailing indices sorted (the monomial
+    /// `x_j x_k` does not depend on their order), the coefficients of a position summed,
+    /// positions ascending, and terms whose sum is exactly zero left out. Why: the elements of a
+    /// mesh share dofs, and a file of one term per monomial is several times shorter than the
+    /// elements' terms side by side.
+    pub fn summed(self) -> Self {
+        fn sum<const N: usize>(
+            terms: Vec<(usize, [usize; N], f64)>,
+        ) -> Vec<(usize, [usize; N], f64)> {
+            let mut by_key: BTreeMap<(usize, [usize; N]), f64> = BTreeMap::new();
+            for (i, mut t, c) in terms {
+                t.sort_unstable();
+                *by_key.entry((i, t)).or_insert(0.0) += c;
+            }
+            by_key
+                .into_iter()
+                .filter(|&(_, c)| c != 0.0)
+                .map(|((i, t), c)| (i, t, c))
+                .collect()
+        }
+        Self {
+            quadratic: sum(self.quadratic),
+            cubic: sum(self.cubic),
+        }
+    }
+
+    /// Whether there are no terms (no nonlinear force).
+    pub fn is_empty(&self) -> bool {
+        self.quadratic.is_empty() && self.cubic.is_empty()
+    }
+
+    /// The tensor element of these terms on a model of `dofs` dofs, checked as
+    /// [`PolynomialTensor::new`] checks them (range, finiteness, eq. (59)).
+    pub fn into_tensor(self, dofs: usize) -> Result<PolynomialTensor, TensorError> {
+        Ok(PolynomialTensor::from_terms(
+            dofs,
+            Terms::new(dofs, self.quadratic)?,
+            Terms::new(dofs, self.cubic)?,
+        ))
+    }
+}
+
 /// Terms `f_i += c Π_p x_{t_p}` of one degree `N`.
 #[derive(Debug, Clone, PartialEq)]
 struct Terms<const N: usize> {
@@ -355,6 +418,14 @@ impl NonlinearElement for PolynomialTensor {
         self.quadratic.x_dot_force(x) / 3.0 + self.cubic.x_dot_force(x) / 4.0
     }
 
+    /// Its own terms, as given: the force is this polynomial by definition.
+    fn polynomial_terms(&self) -> Option<PolynomialTerms> {
+        Some(PolynomialTerms {
+            quadratic: self.quadratic.terms.clone(),
+            cubic: self.cubic.terms.clone(),
+        })
+    }
+
     fn dofs_used(&self) -> Vec<usize> {
         let mut used: Vec<usize> = self.pattern.iter().flat_map(|&(i, j)| [i, j]).collect();
         used.sort_unstable();
@@ -481,6 +552,31 @@ mod tests {
                 for j in 0..n {
                     assert!((tangent[j * n + i] - tangent[i * n + j]).abs() < 1e-13 * scale);
                 }
+            }
+        }
+    }
+
+    /// A tensor's own terms, one per position once summed (fewer than given: the random
+    /// gradients split coefficients over orderings), read back give its force.
+    #[test]
+    fn summed_terms_give_the_same_force() {
+        let mut rng = Random(7);
+        let n = 5;
+        for _ in 0..3 {
+            let e = random_gradient(n, 10, &mut rng);
+            let terms = e.polynomial_terms().expect("its own terms");
+            assert_eq!((terms.quadratic.len(), terms.cubic.len()), e.terms());
+            let summed = terms.summed();
+            assert!(summed.quadratic.len() + summed.cubic.len() < e.terms().0 + e.terms().1);
+            for (_, t, c) in &summed.quadratic {
+                assert!(t[0] <= t[1] && *c != 0.0);
+            }
+            let back = summed.into_tensor(n).expect("a gradient");
+            let x: Vec<f64> = (0..n).map(|_| rng.next()).collect();
+            let (f, g) = (force(&e, &x), force(&back, &x));
+            let scale = f.iter().fold(1.0_f64, |s, v| s.max(v.abs()));
+            for (a, b) in f.iter().zip(&g) {
+                assert!((a - b).abs() < 1e-14 * scale, "{a} vs {b}");
             }
         }
     }
