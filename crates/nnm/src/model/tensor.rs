@@ -48,22 +48,30 @@ impl PolynomialTerms {
 
     /// The same force with one term per position: the trailing indices sorted (the monomial
     /// `x_j x_k` does not depend on their order), the coefficients of a position summed,
-    /// positions ascending, and terms whose sum is exactly zero left out. Why: the elements of a
-    /// mesh share dofs, and a file of one term per monomial is several times shorter than the
-    /// elements' terms side by side.
+    /// positions ascending. Why: the elements of a mesh share dofs, and a file of one term per
+    /// monomial is several times shorter than the elements' terms side by side.
+    ///
+    /// A position whose sum `Σ c` cancels to within its round-off, `|Σ c| ≤ (16 + m) u Σ |c|`
+    /// for `m` contributions (`u` the unit round-off), is left out: it is zero as far as the
+    /// coefficients can tell. Each carries up to `16 u` of its own computation (a von Kármán
+    /// element's quadrature of products) and the sum adds `m u`; the `x_w x_θ³` terms of two
+    /// neighbouring von Kármán elements, for one, cancel exactly in theory and to `5 u` of their
+    /// size in floating point, and would otherwise be written as noise.
     pub fn summed(self) -> Self {
         fn sum<const N: usize>(
             terms: Vec<(usize, [usize; N], f64)>,
         ) -> Vec<(usize, [usize; N], f64)> {
-            let mut by_key: BTreeMap<(usize, [usize; N]), f64> = BTreeMap::new();
+            // Per position: the sum, the sum of magnitudes and the number of contributions.
+            let mut by_key: BTreeMap<(usize, [usize; N]), (f64, f64, f64)> = BTreeMap::new();
             for (i, mut t, c) in terms {
                 t.sort_unstable();
-                *by_key.entry((i, t)).or_insert(0.0) += c;
+                let entry = by_key.entry((i, t)).or_insert((0.0, 0.0, 0.0));
+                *entry = (entry.0 + c, entry.1 + c.abs(), entry.2 + 1.0);
             }
             by_key
                 .into_iter()
-                .filter(|&(_, c)| c != 0.0)
-                .map(|((i, t), c)| (i, t, c))
+                .filter(|&(_, (c, size, m))| c.abs() > (16.0 + m) * f64::EPSILON * size)
+                .map(|((i, t), (c, _, _))| (i, t, c))
                 .collect()
         }
         Self {
@@ -579,6 +587,23 @@ mod tests {
                 assert!((a - b).abs() < 1e-14 * scale, "{a} vs {b}");
             }
         }
+    }
+
+    /// A position that cancels to round-off is dropped, a small one that does not is kept.
+    #[test]
+    fn summed_terms_drop_round_off_cancellation() {
+        let terms = PolynomialTerms {
+            quadratic: vec![
+                (0, [1, 0], 0.1 + 0.2),
+                (0, [0, 1], -0.3),
+                (1, [1, 1], 1e-20),
+                (1, [0, 0], 0.0),
+            ],
+            cubic: vec![(2, [2, 1, 0], 3.0), (2, [0, 1, 2], -1.0)],
+        }
+        .summed();
+        assert_eq!(terms.quadratic, vec![(1, [1, 1], 1e-20)]);
+        assert_eq!(terms.cubic, vec![(2, [0, 1, 2], 2.0)]);
     }
 
     /// `f_0 = x_1²` alone is not a gradient (`f_1 = 2 x_0 x_1` is missing); the error names

@@ -314,20 +314,35 @@ impl NonlinearElement for VonKarmanElement {
     ///   `(E A / 2) Σ_bcd H_abcd q_b q_c q_d` (from `½ s³ N_w'ᵀ`).
     ///
     /// A clamped local dof is zero: a term with it as a factor vanishes, and one on its row is
-    /// the support's reaction, not a force on the model (eq. (61)).
+    /// the support's reaction, not a force on the model (eq. (61)). An integral whose
+    /// quadrature sum cancels to within its round-off (`16 u Σ_p |w_p Π N'|`: each product of
+    /// up to five factors carries `5 u`, the sum of five of them adds `5 u`) is zero exactly —
+    /// `∫ N_w₁'² N_θ₁' N_θ₂' dx = 0`, for one — and is written as no term rather than as 1e-20
+    /// of its neighbours.
     fn polynomial_terms(&self) -> Option<PolynomialTerms> {
         let t = &*self.table;
         let (ea, il) = (t.axial_stiffness, t.inverse_length);
+        let integral = |factors: &[usize]| {
+            let (mut sum, mut size) = (0.0, 0.0);
+            for (weight, n) in &t.points {
+                let v = weight * factors.iter().map(|&a| n[a]).product::<f64>();
+                sum += v;
+                size += v.abs();
+            }
+            if sum.abs() <= 16.0 * f64::EPSILON * size {
+                0.0
+            } else {
+                sum
+            }
+        };
         let mut g = [[0.0; 4]; 4];
         let mut h = [[[[0.0; 4]; 4]; 4]; 4];
-        for (weight, n) in &t.points {
-            for a in 0..4 {
-                for b in 0..4 {
-                    g[a][b] += weight * n[a] * n[b];
-                    for c in 0..4 {
-                        for d in 0..4 {
-                            h[a][b][c][d] += weight * n[a] * n[b] * n[c] * n[d];
-                        }
+        for a in 0..4 {
+            for b in 0..4 {
+                g[a][b] = integral(&[a, b]);
+                for c in 0..4 {
+                    for d in 0..4 {
+                        h[a][b][c][d] = integral(&[a, b, c, d]);
                     }
                 }
             }
