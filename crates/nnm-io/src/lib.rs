@@ -1,7 +1,9 @@
 //! File formats of nnm: job files (TOML), Matrix Market matrices, and result files
-//! (CSV/JSON). The numerical core (`nnm`) knows nothing of files; this crate is the bridge.
+//! (CSV/JSON); a job's model written back as finite-element files (`export`). The numerical
+//! core (`nnm`) knows nothing of files; this crate is the bridge.
 
 mod error;
+pub mod export;
 pub mod job;
 pub mod matrix_market;
 pub mod output;
