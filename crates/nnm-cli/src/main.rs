@@ -4,6 +4,7 @@ mod beam_study;
 mod bench;
 mod compute;
 mod exit;
+mod export;
 mod fep;
 mod interrupt;
 mod modes;
@@ -54,6 +55,16 @@ enum Command {
         /// Print errors only: no progress, and the summary only when a branch did not finish.
         #[arg(long, short)]
         quiet: bool,
+    },
+    /// Write a job's model as a finite-element code exports it: DIR/M.mtx and K.mtx (Matrix
+    /// Market), f2.txt and f3.txt (quadratic and cubic force terms) and DIR/<job>.toml, which
+    /// reads them and copies the job's branches and responses (same dofs).
+    Export {
+        /// Job file (TOML) whose `[model]` is written.
+        job: PathBuf,
+        /// Output folder (created if missing); existing files are not overwritten.
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
     },
     /// The bladed-disk study of the paper on a job's model: every backbone, similar vs
     /// nonsimilar modes, localization, the 3:1 tongue, the sensitivity/finite-difference cost
@@ -189,6 +200,7 @@ fn execute(cli: Cli) -> Result<()> {
             progress::set_quiet(quiet);
             run::run_job(&job, &out, threads, quiet)
         }
+        Command::Export { job, out } => export::export(&job, &out),
         Command::Study {
             job,
             out,

@@ -177,6 +177,7 @@ fn help_on_every_subcommand() {
         vec!["--help"],
         vec!["modes", "--help"],
         vec!["run", "--help"],
+        vec!["export", "--help"],
         vec!["example", "--help"],
         vec!["example", "bladed-disk", "--help"],
         vec!["example", "cantilever-beam", "--help"],
