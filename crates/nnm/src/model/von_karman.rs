@@ -320,6 +320,7 @@ impl NonlinearElement for VonKarmanElement {
     /// `∫ N_w₁'² N_θ₁' N_θ₂' dx = 0`, for one — and is written as no term rather than as 1e-20
     /// of its neighbours.
     fn polynomial_terms(&self) -> Option<PolynomialTerms> {
+        use std::array::from_fn;
         let t = &*self.table;
         let (ea, il) = (t.axial_stiffness, t.inverse_length);
         let integral = |factors: &[usize]| {
@@ -335,18 +336,9 @@ impl NonlinearElement for VonKarmanElement {
                 sum
             }
         };
-        let mut g = [[0.0; 4]; 4];
-        let mut h = [[[[0.0; 4]; 4]; 4]; 4];
-        for a in 0..4 {
-            for b in 0..4 {
-                g[a][b] = integral(&[a, b]);
-                for c in 0..4 {
-                    for d in 0..4 {
-                        h[a][b][c][d] = integral(&[a, b, c, d]);
-                    }
-                }
-            }
-        }
+        let g: [[f64; 4]; 4] = from_fn(|a| from_fn(|b| integral(&[a, b])));
+        let h: [[[[f64; 4]; 4]; 4]; 4] =
+            from_fn(|a| from_fn(|b| from_fn(|c| from_fn(|d| integral(&[a, b, c, d])))));
         let transverse = TRANSVERSE.map(|a| self.dofs[a]);
         let axial = [(-1.0, self.dofs[AXIAL[0]]), (1.0, self.dofs[AXIAL[1]])];
         let mut terms = PolynomialTerms::default();
