@@ -92,9 +92,14 @@ pub fn export_job(job_path: &Path) -> Result<ExportedJob, ExportError> {
     let stem = job_path
         .file_stem()
         .map_or_else(|| "model".into(), |s| s.to_string_lossy().into_owned());
+    let dofs = if n == 1 {
+        "1 dof".into()
+    } else {
+        format!("{n} dofs")
+    };
     let origin = |what: &str| {
         vec![
-            format!("{what} of {name} ({} model, {n} dofs), written by `nnm export`.", job.family),
+            format!("{what} of {name} ({}, {dofs}), written by `nnm export`.", job.family),
             "Rows and columns are the dofs of the model computed (1-based here, 0-based in outputs).".into(),
         ]
     };
@@ -160,9 +165,10 @@ pub fn export_job(job_path: &Path) -> Result<ExportedJob, ExportError> {
     let base = job_path.parent().unwrap_or(Path::new("."));
     let mut job_text = format!(
         "# Written by `nnm export` from\n#   {name}\n\
-         # its {} model ({n} dofs) as a finite-element code exports it: M and K as Matrix Market\n\
-         # files, the nonlinear force as polynomial terms (docs/job-files.md \"Finite-element\n\
-         # models\"). The dofs are the same; [settings], [[branch]] and [[response]] are copied.\n",
+         # its model ({}, {dofs}) as a finite-element code exports it: M and K as Matrix\n\
+         # Market files, the nonlinear force as polynomial terms (docs/job-files.md\n\
+         # \"Finite-element models\"). The dofs are the same; [settings], [[branch]] and\n\
+         # [[response]] are copied.\n",
         job.family
     );
     job_text += &model;
