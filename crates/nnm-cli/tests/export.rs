@@ -8,20 +8,9 @@ use std::path::Path;
 
 use common::{nnm, scratch, write};
 
-/// The job of `examples/forced-von-karman-beam.toml`: the 20-element von Kármán beam (57
-/// dofs) with Rayleigh damping, driven at its middle across its first resonance, whose peak
-/// folds twice.
-const FORCED_VON_KARMAN: &str = r#"[model]
-family = "von-karman-beam"
-elements = 20
-damping = { rayleigh = [0.0, 1e-5] }
-
-[[response]]
-name = "middle"
-force = { dofs = [28], amplitude = 3.0 }
-frequency_start = 315.0
-frequency_end = 370.0
-"#;
+/// `examples/forced-von-karman-beam.toml`: the 20-element von Kármán beam (57 dofs) with
+/// Rayleigh damping, driven at its middle across its first resonance, whose peak folds twice.
+const FORCED_VON_KARMAN: &str = include_str!("../../../examples/forced-von-karman-beam.toml");
 
 /// The CSV file's rows as records (the header by name).
 fn records(path: &Path) -> Vec<csv::StringRecord> {

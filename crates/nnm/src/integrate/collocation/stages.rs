@@ -6,11 +6,11 @@
 
 use std::sync::Arc;
 
+use super::GaussLegendre;
 use super::low_rank::{LOW_RANK_MAX, LinearLu, LinearStages, LowRank, UpdatedStages};
 use super::split::{SplitLu, SplitStages, StageEigen};
 use super::tableaux::StageMethod;
 use super::tangents::StageTangents;
-use super::GaussLegendre;
 use crate::integrate::IntegrationError;
 use crate::linalg::{DenseLu, Mat, SparseLu, SparseLuPattern};
 use crate::model::{Block, BlockMut, MechanicalSystem, SparseMatrix, SparsityPattern};
