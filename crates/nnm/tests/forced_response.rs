@@ -26,6 +26,37 @@ fn curve(
     forced_response(system, sweep, &[], settings, |_| ControlFlow::Continue(())).unwrap()
 }
 
+/// The frequencies of a curve's folds, in order.
+fn fold_frequencies(c: &ResponseCurve) -> Vec<f64> {
+    (c.events.iter())
+        .filter(|e| e.kind == ResponseEventKind::Fold)
+        .map(|e| e.point.frequency)
+        .collect()
+}
+
+/// Two folds on `c`, each within `relative` of the reference curve's two.
+fn assert_same_two_folds(c: &ResponseCurve, reference: &ResponseCurve, relative: f64) {
+    let (a, b) = (fold_frequencies(c), fold_frequencies(reference));
+    assert_eq!(a.len(), 2, "folds {a:?}");
+    assert_eq!(b.len(), 2, "reference folds {b:?}");
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < relative * y, "folds {a:?} vs {b:?}");
+    }
+}
+
+/// Between the two folds (the points after the first fold's, up to the second's) the
+/// response is unstable, elsewhere stable.
+fn assert_unstable_exactly_between_folds(c: &ResponseCurve) {
+    let at: Vec<usize> = (c.events.iter())
+        .filter(|e| e.kind == ResponseEventKind::Fold)
+        .map(|e| e.point.index)
+        .collect();
+    for (k, point) in c.points.iter().enumerate() {
+        let middle = k > at[0] && k <= at[1];
+        assert_eq!(point.stable, !middle, "point {k} of {}", c.points.len());
+    }
+}
+
 /// `x'' + 0.02 x' + x + x³ = 0.1 cos Ωt` from Ω = 0.5 to 3.5, at default settings: the two
 /// folds where harmonic balance (15 harmonics, converged to 1e-12) puts them, to 1e-8 in Ω;
 /// the branch between them unstable and the others stable; peaks as harmonic balance's.
@@ -358,14 +389,7 @@ fn half_period_shooting_equals_whole_period_shooting() {
         curve(&system, sweep, &whole),
     );
     assert!(half.half_period && !whole.half_period);
-    let folds = |c: &ResponseCurve| -> Vec<f64> {
-        c.events
-            .iter()
-            .filter(|e| e.kind == ResponseEventKind::Fold)
-            .map(|e| e.point.frequency)
-            .collect()
-    };
-    let (a, b) = (folds(&half), folds(&whole));
+    let (a, b) = (fold_frequencies(&half), fold_frequencies(&whole));
     assert_eq!(a.len(), 2);
     assert_eq!(b.len(), 2);
     for (x, y) in a.iter().zip(&b) {
@@ -428,27 +452,9 @@ fn matrix_free_shooting_equals_dense_shooting() {
     let (free, dense) = (with(Formulation::MatrixFree), with(Formulation::Dense));
     assert_eq!(free.stop, ResponseStop::End);
     assert_eq!(dense.stop, ResponseStop::End);
-    let folds = |c: &ResponseCurve| -> Vec<f64> {
-        c.events
-            .iter()
-            .filter(|e| e.kind == ResponseEventKind::Fold)
-            .map(|e| e.point.frequency)
-            .collect()
-    };
-    let (a, b) = (folds(&free), folds(&dense));
-    assert_eq!(a.len(), 2, "matrix-free folds {a:?}");
-    assert_eq!(b.len(), 2, "dense folds {b:?}");
-    for (x, y) in a.iter().zip(&b) {
-        assert!((x - y).abs() < 1e-8 * y, "folds {a:?} vs {b:?}");
-    }
-    // Between the folds (the points after the first fold's, up to the second's) the
-    // response is unstable, elsewhere stable, on both.
+    assert_same_two_folds(&free, &dense, 1e-8);
     for c in [&free, &dense] {
-        let (first, second) = (c.events[0].point.index, c.events[1].point.index);
-        for (k, point) in c.points.iter().enumerate() {
-            let middle = k > first && k <= second;
-            assert_eq!(point.stable, !middle, "point {k} of {}", c.points.len());
-        }
+        assert_unstable_exactly_between_folds(c);
     }
     let (p, q) = (free.points.last().unwrap(), dense.points.last().unwrap());
     assert!((p.frequency - q.frequency).abs() < 1e-9 * q.frequency);
@@ -511,32 +517,11 @@ fn von_karman_half_wave_parity_equals_whole_periods() {
     for c in [&half, &whole, &matrix_free] {
         assert_eq!(c.stop, ResponseStop::End);
     }
-    let folds = |c: &ResponseCurve| -> Vec<f64> {
-        c.events
-            .iter()
-            .filter(|e| e.kind == ResponseEventKind::Fold)
-            .map(|e| e.point.frequency)
-            .collect()
-    };
-    let b = folds(&whole);
-    assert_eq!(b.len(), 2, "whole-period folds {b:?}");
     for c in [&half, &matrix_free] {
-        let a = folds(c);
-        assert_eq!(a.len(), 2, "half-period folds {a:?}");
-        for (x, y) in a.iter().zip(&b) {
-            assert!((x - y).abs() < 1e-7 * y, "folds {a:?} vs {b:?}");
-        }
+        assert_same_two_folds(c, &whole, 1e-7);
     }
     for c in [&half, &whole, &matrix_free] {
-        let fold_points: Vec<usize> = (c.events.iter())
-            .filter(|e| e.kind == ResponseEventKind::Fold)
-            .map(|e| e.point.index)
-            .collect();
-        let (first, second) = (fold_points[0], fold_points[1]);
-        for (k, point) in c.points.iter().enumerate() {
-            let middle = k > first && k <= second;
-            assert_eq!(point.stable, !middle, "point {k} of {}", c.points.len());
-        }
+        assert_unstable_exactly_between_folds(c);
     }
     // The motions sampled over half a period and mirrored by the parity: the same peak and
     // first harmonic at the sweep's end as sampled over the whole one.
