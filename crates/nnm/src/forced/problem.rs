@@ -224,11 +224,13 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     rigid_pins: Vec<(Vec<f64>, f64)>,
     /// Multipliers at +1 that the rigid-body modes bring (one or two a mode).
     neutral_multipliers: usize,
-    /// Shoot over half the period, `S z(π) = z0` (eq. (99b)), with the signs `S` of the state
-    /// (`2n`, the velocities' those of their displacements): `−1` everywhere for an odd
-    /// system, a parity's (flip the transverse dofs, keep the in-plane ones) for a von Kármán
-    /// model.
-    half_wave: Option<Vec<f64>>,
+    /// Shoot over half the period, `S z(π) = z0` (eq. (99b)).
+    half_period: bool,
+    /// `P`, the state map after the horizon, per state coordinate (`2n`): `+1` over a whole
+    /// period; over half of one the signs `S` (the velocities' those of their displacements):
+    /// `−1` everywhere for an odd system, a parity's (flip the transverse dofs, keep the
+    /// in-plane ones) for a von Kármán model.
+    flip: Vec<f64>,
     /// The continuation's tolerance: below it, an evaluation is made exact.
     tolerance: f64,
     /// Newton corrections by GMRES and multipliers by Arnoldi on the recorded flow (eq.
@@ -271,7 +273,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             samples,
             rigid_pins: Vec::new(),
             neutral_multipliers: 0,
-            half_wave: None,
+            half_period: false,
+            flip: vec![1.0; 2 * system.dofs()],
             tolerance,
             matrix_free: false,
             products: Arc::default(),
@@ -324,8 +327,12 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
         if let Some(signs) = &signs {
             assert_eq!(signs.len(), n, "one sign a displacement");
         }
+        self.half_period = signs.is_some();
         // On the state: the velocities take their displacements' signs.
-        self.half_wave = signs.map(|s| s.iter().chain(&s).copied().collect());
+        self.flip = match signs {
+            Some(s) => s.iter().chain(&s).copied().collect(),
+            None => vec![1.0; 2 * n],
+        };
         self
     }
 
@@ -352,7 +359,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
 
     /// Whether it shoots over half the period.
     pub fn half_period(&self) -> bool {
-        self.half_wave.is_some()
+        self.half_period
     }
 
     /// The sweep.
@@ -412,8 +419,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
         let count = self.samples;
         // A half-wave symmetric motion's second half is the first's image `S z`: not
         // integrated.
-        let states = if let Some(signs) = self.half_wave.as_ref().filter(|_| count % 2 == 0) {
-            sample_half_wave(self.integrator.as_mut(), z0, drive, count, signs)?
+        let states = if self.half_period && count % 2 == 0 {
+            sample_half_wave(self.integrator.as_mut(), z0, drive, count, &self.flip)?
         } else {
             sample(self.integrator.as_mut(), z0, drive, count)?
         };
@@ -463,26 +470,17 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
 impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
     /// The horizon shot: the forcing period, or half of it (eq. (99b)).
     fn span(&self) -> f64 {
-        if self.half_wave.is_some() {
+        if self.half_period {
             std::f64::consts::PI
         } else {
             2.0 * std::f64::consts::PI
         }
     }
 
-    /// `P`, the state map after the horizon, per state coordinate: the half-wave symmetry's
-    /// signs over half a period, `+1` over a whole one.
-    fn flip(&self) -> Vec<f64> {
-        match &self.half_wave {
-            Some(signs) => signs.clone(),
-            None => vec![1.0; 2 * self.system.dofs()],
-        }
-    }
-
     /// `D (P z(span) − z0)` and the rigid-body offset rows.
     fn residual_rows(&self, u: &[f64], z0: &[f64], end: &[f64]) -> Vec<f64> {
         let n = self.system.dofs();
-        let flip = self.flip();
+        let flip = &self.flip;
         (0..2 * n)
             .map(|i| (flip[i] * end[i] - z0[i]) / self.scale_of(i))
             .chain(
@@ -536,7 +534,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         }
         let flow = self.integrator.flow(&z0, drive, self.span(), true)?;
         let (rows, relative_residual) = self.residual_of(u, &z0, &flow, true);
-        let flip = self.flip();
+        let flip = &self.flip;
         let phi = |i: usize, j: usize| flip[i] * flow.sensitivity[j * n2 + i];
         let parameter_column = match self.sweep {
             Sweep::Frequency { .. } => n2,
@@ -581,7 +579,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
     ) -> ForcedEvaluation {
         let n2 = 2 * self.system.dofs();
         let (rows, relative_residual) = self.residual_of(u, &z0, &flow, true);
-        let flip = self.flip();
+        let flip = &self.flip;
         // `flow.sensitivity` holds `[∂z/∂Ω ∂z/∂a]`.
         let parameter = match self.sweep {
             Sweep::Frequency { .. } => 0,
@@ -596,7 +594,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
         let size = linalg::norm(&u[..n2]);
         let operator = Arc::new(ForcedOperator::new(
             linearization,
-            flip,
+            flip.clone(),
             scales,
             parameter_column,
             self.tolerance,
@@ -682,7 +680,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
             Some(operator) => {
                 // Multipliers below a tenth in modulus take part in no crossing of the unit
                 // circle; over half a period the shot map's eigenvalues are their roots.
-                let floor = if self.half_wave.is_some() {
+                let floor = if self.half_period {
                     MULTIPLIER_FLOOR.sqrt()
                 } else {
                     MULTIPLIER_FLOOR
@@ -691,7 +689,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
             }
             None => linalg::eigenvalues(evaluation.monodromy.as_ref())?,
         };
-        if self.half_wave.is_some() {
+        if self.half_period {
             // The monodromy is the half map's derivative squared (eq. (99b)).
             multipliers = multipliers
                 .iter()
