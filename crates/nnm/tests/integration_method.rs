@@ -28,7 +28,8 @@ fn all_lists_every_method() {
             | IntegrationMethod::Dopri5
             | IntegrationMethod::Gauss4
             | IntegrationMethod::Gauss6
-            | IntegrationMethod::Radau5 => {}
+            | IntegrationMethod::Radau5
+            | IntegrationMethod::Radau9 => {}
         }
     }
     for method in [
@@ -38,6 +39,7 @@ fn all_lists_every_method() {
         IntegrationMethod::Gauss4,
         IntegrationMethod::Gauss6,
         IntegrationMethod::Radau5,
+        IntegrationMethod::Radau9,
     ] {
         assert!(listed(method), "{}", method.name());
     }

@@ -99,6 +99,7 @@ fn linear_response_equals_the_complex_solve_explicit() {
 #[test]
 fn linear_response_equals_the_complex_solve_implicit() {
     linear_curve(IntegrationMethod::Radau5);
+    linear_curve(IntegrationMethod::Radau9);
 }
 
 #[test]

@@ -16,7 +16,8 @@ mod runge_kutta;
 mod tableau;
 
 pub use collocation::{
-    Collocation, CollocationLinearization, GAUSS4, GAUSS6, GaussLegendre, RADAU5, SPLIT_DOFS,
+    Collocation, CollocationLinearization, GAUSS4, GAUSS6, GaussLegendre, RADAU5, RADAU9,
+    SPLIT_DOFS,
 };
 pub use runge_kutta::RungeKutta;
 pub use tableau::{DOP853, DOPRI5, ErrorEstimate, Tableau};
@@ -50,7 +51,7 @@ pub trait Integrator {
     ) -> Result<(Flow, Arc<dyn LinearizedFlow>), IntegrationError> {
         Err(IntegrationError::InvalidInput(
             "this integrator does not record its linearisation; matrix-free shooting needs \
-             an implicit collocation method (gauss4, gauss6, radau5)"
+             an implicit collocation method (gauss4, gauss6, radau5, radau9)"
                 .into(),
         ))
     }
@@ -149,6 +150,9 @@ pub enum IntegrationMethod {
     /// Three-stage Radau IIA collocation (implicit, order 5, L-stable: damps the unresolved
     /// stiff modes).
     Radau5,
+    /// Five-stage Radau IIA collocation (implicit, order 9, L-stable): the forced responses'
+    /// stiff integrator, where order 5 needs ten times the steps.
+    Radau9,
 }
 
 /// Above this ratio of the highest linear frequency to the branch's, [`IntegrationMethod::Auto`]
@@ -222,20 +226,22 @@ impl IntegrationMethod {
             IntegrationMethod::Dop853 | IntegrationMethod::Dopri5 | IntegrationMethod::Auto => {
                 factor * tolerance
             }
-            IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 | IntegrationMethod::Radau5 => {
-                0.1 * tolerance
-            }
+            IntegrationMethod::Gauss4
+            | IntegrationMethod::Gauss6
+            | IntegrationMethod::Radau5
+            | IntegrationMethod::Radau9 => 0.1 * tolerance,
         }
     }
 
     /// Every variant, in declaration order.
-    pub const ALL: [IntegrationMethod; 6] = [
+    pub const ALL: [IntegrationMethod; 7] = [
         IntegrationMethod::Auto,
         IntegrationMethod::Dop853,
         IntegrationMethod::Dopri5,
         IntegrationMethod::Gauss4,
         IntegrationMethod::Gauss6,
         IntegrationMethod::Radau5,
+        IntegrationMethod::Radau9,
     ];
 
     /// The method's name in job files and settings (serde's kebab-case spelling), for
@@ -248,6 +254,7 @@ impl IntegrationMethod {
             IntegrationMethod::Gauss4 => "gauss4",
             IntegrationMethod::Gauss6 => "gauss6",
             IntegrationMethod::Radau5 => "radau5",
+            IntegrationMethod::Radau9 => "radau9",
         }
     }
 
@@ -265,7 +272,10 @@ impl IntegrationMethod {
     pub fn is_collocation(self) -> bool {
         matches!(
             self,
-            IntegrationMethod::Gauss4 | IntegrationMethod::Gauss6 | IntegrationMethod::Radau5
+            IntegrationMethod::Gauss4
+                | IntegrationMethod::Gauss6
+                | IntegrationMethod::Radau5
+                | IntegrationMethod::Radau9
         )
     }
 
@@ -283,7 +293,7 @@ impl IntegrationMethod {
     /// converges in about the rank of the resolved modes (docs/method.md §15), which makes
     /// matrix-free shooting the cheaper formulation.
     pub fn damps_unresolved_modes(self) -> bool {
-        self == IntegrationMethod::Radau5
+        matches!(self, IntegrationMethod::Radau5 | IntegrationMethod::Radau9)
     }
 
     /// The integrator of this method for `system` (`Auto` unresolved: DOP853; resolve first).
@@ -300,6 +310,7 @@ impl IntegrationMethod {
             IntegrationMethod::Gauss4 => Box::new(GaussLegendre::new(system, &GAUSS4, tolerances)),
             IntegrationMethod::Gauss6 => Box::new(GaussLegendre::new(system, &GAUSS6, tolerances)),
             IntegrationMethod::Radau5 => Box::new(GaussLegendre::new(system, &RADAU5, tolerances)),
+            IntegrationMethod::Radau9 => Box::new(GaussLegendre::new(system, &RADAU9, tolerances)),
         }
     }
 }
@@ -429,6 +440,16 @@ pub enum IntegrationError {
     #[error("the motion became non-finite at t = {t:.6e}")]
     NotFinite {
         /// Start of the step that produced it (0 for a non-finite initial state).
+        t: f64,
+    },
+    /// An implicit step's stage equations did not converge: the step is too long for the
+    /// stage iteration (a forced integration retries on more steps).
+    #[error(
+        "the stage equations did not converge at t = {t:.6e}; tighten the tolerance or choose \
+         another integrator"
+    )]
+    StagesDiverged {
+        /// Start of the step.
         t: f64,
     },
     /// The request itself is wrong: a state or block of the wrong size, or a non-positive

@@ -54,7 +54,7 @@ mod tangents;
 pub use recorded::CollocationLinearization;
 pub(in crate::integrate) use recorded::{RecordedStep, VariationalBuffers, variational_step};
 pub use split::SPLIT_DOFS;
-pub use tableaux::{Collocation, GAUSS4, GAUSS6, RADAU5};
+pub use tableaux::{Collocation, GAUSS4, GAUSS6, RADAU5, RADAU9};
 
 use std::sync::Arc;
 

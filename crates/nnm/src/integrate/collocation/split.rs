@@ -363,14 +363,14 @@ impl SplitLu {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrate::{GAUSS4, GAUSS6, RADAU5};
+    use crate::integrate::{GAUSS4, GAUSS6, RADAU5, RADAU9};
 
     /// `T Λ T⁻¹` gives back `A`, and `T Λ² T⁻¹` gives back `Ā = A²`, for every collocation
     /// method, from the real eigenvalues and the conjugate pairs kept (Gauss4 has one pair,
-    /// Gauss6 and Radau5 one real and one pair).
+    /// Gauss6 and Radau5 one real and one pair, Radau9 one real and two pairs).
     #[test]
     fn stage_eigen_decomposition_reconstructs_a_and_abar() {
-        for (method, real) in [(&GAUSS4, 0), (&GAUSS6, 1), (&RADAU5, 1)] {
+        for (method, real) in [(&GAUSS4, 0), (&GAUSS6, 1), (&RADAU5, 1), (&RADAU9, 1)] {
             let coefficients = StageMethod::new(method);
             let s = method.c.len();
             let eigen = StageEigen::new(&coefficients.a).unwrap();

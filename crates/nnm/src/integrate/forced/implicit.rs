@@ -86,6 +86,9 @@ pub struct ForcedCollocation<'s, 'a, S: MechanicalSystem + ?Sized> {
     pub tolerances: Tolerances,
     /// Equal steps a period.
     steps: usize,
+    /// At least this many steps a period, once fewer failed the stage iteration
+    /// ([`Self::integrate_on_period_steps`]).
+    least_steps: usize,
     /// Where the step count was last estimated (frequency, RMS size of the state) and how
     /// many points it has served since.
     estimate: Option<(f64, f64, usize)>,
@@ -201,6 +204,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             method,
             tolerances,
             steps: INITIAL_STEPS,
+            least_steps: MIN_STEPS,
             estimate: None,
             mass,
             stages,
@@ -366,7 +370,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 }
                 let (w, v) = (&ws.w[i * n..(i + 1) * n], &ws.v[i * n..(i + 1) * n]);
                 self.mass.apply_add(omega, w, n, 1, r, n);
-                self.system.damping().apply_add(1.0, v, n, 1, r, n);
+                self.system.add_damping_force(v, r);
                 r.iter_mut().for_each(|e| *e /= -omega);
             }
             stats.rhs_evaluations += s;
@@ -425,11 +429,39 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         }
         ws.w.clear();
         ws.lu = None;
-        Err(IntegrationError::InvalidInput(format!(
-            "the stage equations did not converge at t = {:.6e}; tighten the tolerance or \
-             choose another integrator",
-            tau / omega
-        )))
+        Err(IntegrationError::StagesDiverged { t: tau / omega })
+    }
+
+    /// [`Self::integrate`] over `span` on the steps a period [`Self::steps`] holds (rounded
+    /// up when `round_up`, to the nearest count otherwise). When a step's stage equations do
+    /// not converge, half again as many steps a period are taken, and kept as the least for
+    /// the rest of the curve. Why: the error estimate sets the steps by accuracy alone, and a
+    /// step it allows can still be too long for the stage iteration — the 10⁴-dof von
+    /// Kármán beam's upper branch at 8 steps a period by Radau9, just past its fold.
+    fn integrate_on_period_steps(
+        &mut self,
+        z0: &[f64],
+        (tau0, span, round_up): (f64, f64, bool),
+        drive: Drive,
+        sensitivities: Sensitivities,
+    ) -> Result<(ForcedFlow, Option<Vec<RecordedStep>>), IntegrationError> {
+        let period = 2.0 * std::f64::consts::PI;
+        loop {
+            let steps = span / period * self.steps as f64;
+            let steps = (if round_up {
+                steps.ceil()
+            } else {
+                steps.round()
+            } as usize)
+                .max(1);
+            match self.integrate(z0, tau0, span, steps, drive, sensitivities) {
+                Err(IntegrationError::StagesDiverged { .. }) if self.steps < MAX_STEPS => {
+                    self.steps = (self.steps + self.steps / 2).min(MAX_STEPS);
+                    self.least_steps = self.steps;
+                }
+                result => return result,
+            }
+        }
     }
 
     /// `steps` equal steps from `z0` at phase `tau0` over `span`, with the sensitivities
@@ -669,14 +701,15 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
         span: f64,
         sensitivities: bool,
     ) -> Result<ForcedFlow, IntegrationError> {
-        let period = 2.0 * std::f64::consts::PI;
-        let steps = ((span / period * self.steps as f64).round() as usize).max(1);
         let wanted = if sensitivities {
             Sensitivities::Full
         } else {
             Sensitivities::None
         };
-        Ok(self.integrate(z0, 0.0, span, steps, drive, wanted)?.0)
+        let horizon = (0.0, span, false);
+        Ok(self
+            .integrate_on_period_steps(z0, horizon, drive, wanted)?
+            .0)
     }
 
     /// Records the steps when the stage system is sparse (a dense one serves small models,
@@ -690,11 +723,9 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
         if !matches!(self.stages, Stages::Sparse { .. }) {
             return None;
         }
-        let period = 2.0 * std::f64::consts::PI;
-        let steps = ((span / period * self.steps as f64).round() as usize).max(1);
         let recorded = Sensitivities::Recorded;
         Some(
-            self.integrate(z0, 0.0, span, steps, drive, recorded)
+            self.integrate_on_period_steps(z0, (0.0, span, false), drive, recorded)
                 .map(|(flow, record)| {
                     let linearization = CollocationLinearization {
                         method: self.method,
@@ -716,9 +747,8 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
         span: f64,
         drive: Drive,
     ) -> Result<Vec<f64>, IntegrationError> {
-        let period = 2.0 * std::f64::consts::PI;
-        let steps = ((span / period * self.steps as f64).ceil() as usize).max(1);
-        let (flow, _) = self.integrate(z0, tau0, span, steps, drive, Sensitivities::None)?;
+        let horizon = (tau0, span, true);
+        let (flow, _) = self.integrate_on_period_steps(z0, horizon, drive, Sensitivities::None)?;
         Ok(flow.z)
     }
 
@@ -747,8 +777,22 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
         for _ in 0..4 {
             let steps = self.steps.max(2 * MIN_STEPS);
             let none = Sensitivities::None;
-            let (fine, _) = self.integrate(z0, 0.0, period, steps, drive, none)?;
-            let (coarse, _) = self.integrate(z0, 0.0, period, steps / 2, drive, none)?;
+            let pair = self
+                .integrate(z0, 0.0, period, steps, drive, none)
+                .and_then(|fine| {
+                    Ok((
+                        fine,
+                        self.integrate(z0, 0.0, period, steps / 2, drive, none)?,
+                    ))
+                });
+            let ((fine, _), (coarse, _)) = match pair {
+                // Steps too long for the stage iteration are too long for the estimate too.
+                Err(IntegrationError::StagesDiverged { .. }) if steps < MAX_STEPS => {
+                    self.steps = (steps + steps / 2).min(MAX_STEPS);
+                    continue;
+                }
+                pair => pair?,
+            };
             let error =
                 self.slow_difference(&fine.z, &coarse.z, &filter) / (2f64.powi(order) - 1.0);
             // Aim at a third of the tolerance, so that the next points, a little further
@@ -758,7 +802,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
             if error <= 1.0 {
                 // Coarsen only by a clear margin: every change alters the discrete map.
                 if wanted < steps * 2 / 3 {
-                    self.steps = wanted.max(2 * MIN_STEPS);
+                    self.steps = wanted.max(2 * MIN_STEPS).max(self.least_steps);
                 }
                 return Ok(());
             }
