@@ -27,6 +27,10 @@ const GMRES_TOLERANCE: f64 = 1e-11;
 /// A linear residual below this fraction of the continuation's tolerance (times the
 /// unknowns' norm) is small enough whatever the right-hand side (inexact Newton, eq. (74a)).
 const NEWTON_FORCING: f64 = 1e-3;
+/// The relative accuracy of GMRES's products (inexact Newton: a correction good to 1e-7
+/// makes the next residual 1e-7 of this one). Arnoldi's are exact: the multipliers decide
+/// stability.
+const NEWTON_PRODUCT_ACCURACY: f64 = 1e-7;
 /// Most GMRES products a solve (memory: this many vectors of `2n + 1`).
 const MAX_GMRES: usize = 400;
 /// Most Arnoldi steps of a Floquet analysis, and the new direction's size below which the
@@ -87,10 +91,14 @@ impl ForcedOperator {
         }
     }
 
-    /// `out = D⁻¹ P Φ D y`: the shot map's derivative in the scaled unknowns.
-    fn shot_map(&self, y: &[f64], out: &mut [f64]) {
+    /// `out = D⁻¹ P Φ D y`: the shot map's derivative in the scaled unknowns, exact or to
+    /// `accuracy` relative.
+    fn shot_map(&self, y: &[f64], out: &mut [f64], accuracy: Option<f64>) {
         let d: Vec<f64> = y.iter().zip(&self.scales).map(|(y, s)| y * s).collect();
-        self.flow.apply(&d, 1, out);
+        match accuracy {
+            Some(accuracy) => self.flow.apply_approximately(&d, 1, out, accuracy),
+            None => self.flow.apply(&d, 1, out),
+        }
         self.products.fetch_add(1, Ordering::Relaxed);
         for ((o, s), p) in out.iter_mut().zip(&self.scales).zip(&self.flip) {
             *o *= p / s;
@@ -102,7 +110,7 @@ impl ForcedOperator {
     pub(super) fn solve_bordered(&self, border: &[f64], rhs: &[f64], border_rhs: f64) -> Vec<f64> {
         let n2 = self.scales.len();
         let apply = |x: &[f64], out: &mut [f64]| {
-            self.shot_map(&x[..n2], &mut out[..n2]);
+            self.shot_map(&x[..n2], &mut out[..n2], Some(NEWTON_PRODUCT_ACCURACY));
             for i in 0..n2 {
                 out[i] += self.parameter_column[i] * x[n2] - x[i];
             }
@@ -130,7 +138,7 @@ impl ForcedOperator {
             .map(|i| ((i as f64) * 0.618_033_988_75 + 0.5).sin())
             .collect();
         let mut arnoldi = Arnoldi::new(&mixture).ok_or(linalg::LinalgError::NonFinite)?;
-        let mut product = |y: &[f64], out: &mut [f64]| self.shot_map(y, out);
+        let mut product = |y: &[f64], out: &mut [f64]| self.shot_map(y, out, None);
         // How many steps in a row the same number of Ritz values above the floor has
         // converged: an eigenvalue the start reaches weakly shows up late, so the set must
         // hold for a few steps (and some must lie above the floor: a response damped below

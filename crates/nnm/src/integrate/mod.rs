@@ -126,6 +126,18 @@ pub trait LinearizedFlow: Send + Sync {
     fn dimension(&self) -> usize;
     /// `out = Φ(T) D` for `columns` directions `D` (`2n × columns`, column-major).
     fn apply(&self, directions: &[f64], columns: usize, out: &mut [f64]);
+    /// `out ≈ Φ(T) D` to about `accuracy` relative: what a Newton correction needs, cheaper
+    /// where the exact products iterate (the split stage systems, eq. (32f)). Exact unless
+    /// a flow says otherwise.
+    fn apply_approximately(
+        &self,
+        directions: &[f64],
+        columns: usize,
+        out: &mut [f64],
+        _accuracy: f64,
+    ) {
+        self.apply(directions, columns, out);
+    }
 }
 
 /// The integration schemes available from settings and job files.

@@ -320,7 +320,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
                     self.method,
                     &self.bbar,
                     h,
-                    (&lu, &tangents),
+                    (&lu, &tangents, 0.0),
                     None,
                     phi,
                     k,

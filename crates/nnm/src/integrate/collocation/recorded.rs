@@ -24,12 +24,14 @@ pub(in crate::integrate) struct VariationalBuffers {
 /// stage Jacobian `J` at the converged stages (factorised in `lu`) and the tangents it was
 /// built from, then `Φ_x += h Φ_v + h² Σ b̄_j dW_j`, `Φ_v += h Σ b_j dW_j`. The damping `C`
 /// is a forced motion's (eq. (97), in time rather than phase); free motions have none.
+/// `accuracy`: the relative accuracy the stage solves are taken to (0: round-off,
+/// [`StageLu::solve_exact`]).
 #[allow(clippy::too_many_arguments)]
 pub(in crate::integrate) fn variational_step(
     method: &Collocation,
     bbar: &[f64],
     h: f64,
-    (lu, tangents): (&StageLu, &StageTangents),
+    (lu, tangents, accuracy): (&StageLu, &StageTangents, f64),
     damping: Option<&SparseMatrix>,
     phi: &mut [f64],
     k: usize,
@@ -82,7 +84,7 @@ pub(in crate::integrate) fn variational_step(
             }
         }
     }
-    lu.solve_exact(rhs, k, tangents);
+    lu.solve_exact(rhs, k, tangents, accuracy);
     for col in 0..k {
         let dw = &rhs[col * m..(col + 1) * m];
         let (px, pv) = phi[col * n2..(col + 1) * n2].split_at_mut(n);
@@ -123,6 +125,23 @@ impl LinearizedFlow for CollocationLinearization {
     }
 
     fn apply(&self, directions: &[f64], columns: usize, out: &mut [f64]) {
+        self.replay(directions, columns, out, 0.0);
+    }
+
+    fn apply_approximately(
+        &self,
+        directions: &[f64],
+        columns: usize,
+        out: &mut [f64],
+        accuracy: f64,
+    ) {
+        self.replay(directions, columns, out, accuracy);
+    }
+}
+
+impl CollocationLinearization {
+    /// The variational steps over the recorded ones, their stage solves to `accuracy`.
+    fn replay(&self, directions: &[f64], columns: usize, out: &mut [f64], accuracy: f64) {
         out.copy_from_slice(directions);
         if columns == 0 {
             return;
@@ -133,7 +152,7 @@ impl LinearizedFlow for CollocationLinearization {
                 self.method,
                 &self.bbar,
                 step.h,
-                (&step.lu, &step.tangents),
+                (&step.lu, &step.tangents, accuracy),
                 self.damping.as_deref(),
                 out,
                 columns,

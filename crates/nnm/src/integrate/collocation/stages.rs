@@ -318,16 +318,18 @@ impl StageLu {
         }
     }
 
-    /// `J⁻¹ B` to round-off, `J` built from `tangents`: what the variational step needs.
+    /// `J⁻¹ B` to round-off (`accuracy` 0) or to `accuracy` relative, `J` built from
+    /// `tangents`: what the variational step needs.
     pub(in crate::integrate) fn solve_exact(
         &self,
         b: &mut [f64],
         cols: usize,
         tangents: &StageTangents,
+        accuracy: f64,
     ) {
         match self {
             StageLu::Split(split) => {
-                split.solve_exact(b, cols, tangents);
+                split.solve_exact(b, cols, tangents, accuracy);
             }
             exact => exact.solve_in_place(b, cols),
         }

@@ -58,6 +58,9 @@ const STALE_FLOOR: f64 = 1e-7;
 const INITIAL_STEPS: usize = 64;
 const MIN_STEPS: usize = 8;
 const MAX_STEPS: usize = 200_000;
+/// Integrations taken again on more steps after the stage equations diverged, before that is
+/// an error: 1.5⁶ ≈ 11 times the steps.
+const STAGE_RETRIES: usize = 6;
 /// The step count controls the error of the motion below this many harmonics of the force
 /// (the low-pass filter of the module notes).
 const CUTOFF_HARMONICS: f64 = 16.0;
@@ -229,6 +232,13 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         self
     }
 
+    /// Sets the steps a period (tests of the step count's own checks).
+    #[cfg(test)]
+    pub(super) fn with_steps(mut self, steps: usize) -> Self {
+        self.steps = steps;
+        self
+    }
+
     /// Equal steps a period in force.
     pub fn steps(&self) -> usize {
         self.steps
@@ -386,10 +396,11 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 // `max` passes over a NaN: it is looked for entry by entry.
                 finite &= d.is_finite();
             }
+            // A diverging iteration overflows: the step is too long for it.
             if !(finite && update.is_finite()) {
                 ws.w.clear();
                 ws.lu = None;
-                return Err(IntegrationError::NotFinite { t: tau / omega });
+                return Err(IntegrationError::StagesDiverged { t: tau / omega });
             }
             // Converged: the update is below the tolerance, or it stopped shrinking at the
             // round-off floor of the stage system, which lies above `STAGE_TOLERANCE` in the
@@ -446,7 +457,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         sensitivities: Sensitivities,
     ) -> Result<(ForcedFlow, Option<Vec<RecordedStep>>), IntegrationError> {
         let period = 2.0 * std::f64::consts::PI;
-        loop {
+        for retry in 0.. {
             let steps = span / period * self.steps as f64;
             let steps = (if round_up {
                 steps.ceil()
@@ -455,13 +466,18 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             } as usize)
                 .max(1);
             match self.integrate(z0, tau0, span, steps, drive, sensitivities) {
-                Err(IntegrationError::StagesDiverged { .. }) if self.steps < MAX_STEPS => {
-                    self.steps = (self.steps + self.steps / 2).min(MAX_STEPS);
+                Err(IntegrationError::StagesDiverged { .. })
+                    if retry < STAGE_RETRIES && self.steps < MAX_STEPS =>
+                {
+                    self.steps = (self.steps + self.steps / 2)
+                        .max(self.steps + 1)
+                        .min(MAX_STEPS);
                     self.least_steps = self.steps;
                 }
                 result => return result,
             }
         }
+        unreachable!("the loop returns")
     }
 
     /// `steps` equal steps from `z0` at phase `tau0` over `span`, with the sensitivities
@@ -540,7 +556,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                         self.method,
                         &self.bta,
                         h / omega,
-                        (lu, &tangents),
+                        (lu, &tangents, 0.0),
                         Some(self.system.damping()),
                         state,
                         directions,
@@ -654,7 +670,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         rhs.iter_mut().for_each(|e| *e /= -omega);
         lu.as_ref()
             .expect("an exact factorisation at the converged stages")
-            .solve_exact(rhs, COLUMNS, tangents);
+            .solve_exact(rhs, COLUMNS, tangents, 0.0);
         for c in 0..COLUMNS {
             let d_omega = if c == 0 { 1.0 } else { 0.0 };
             let dw = &rhs[c * size..(c + 1) * size];
