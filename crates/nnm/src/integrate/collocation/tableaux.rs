@@ -1,5 +1,5 @@
 //! The collocation methods' coefficients: Gauss–Legendre of two and three stages and Radau IIA
-//! of three (docs/method.md §6).
+//! of three and five (docs/method.md §6).
 
 // Coefficients are quoted with all their digits.
 #![allow(clippy::excessive_precision)]

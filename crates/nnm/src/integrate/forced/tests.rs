@@ -11,8 +11,8 @@ use crate::model::{ForcedSystem, HarmonicForce, Matrix, MechanicalSystem, Sparse
 /// recording integration, eq. (32f) with the damping blocks `h λ_j C`) equals the one with
 /// the whole stage system (the integration that carries `Φ`), and so do the parameter
 /// sensitivities and the recorded products — solved by refinement against the split systems
-/// — against `Φ`'s columns: the same discrete flow and its derivative; the products taken
-/// to 1e-7 (a Newton correction's) within 1e-6 of them.
+/// — against `Φ`'s columns: the same discrete flow and its derivative; the products a
+/// Newton correction takes (stage solves to 1e-4) within 1e-4 of them.
 #[test]
 fn split_forced_stage_solves_equal_the_whole_factorisation() {
     use crate::model::VonKarmanBeam;
@@ -83,14 +83,15 @@ fn split_forced_stage_solves_equal_the_whole_factorisation() {
         })
         .collect();
     close(&product, &carried, "recorded products");
-    // The products a Newton correction takes, refined only to 1e-7 a step: within 1e-6 of
-    // the exact ones (measured 4.6e-9).
+    // The products a Newton correction takes, each stage solve refined only to 1e-4 of its
+    // largest entry: within 1e-4 of the exact ones (measured 2.9e-5, this hard start from
+    // rest being far from any periodic motion's smoothness).
     let mut approximate = vec![0.0; n2 * k];
-    linearization.apply_approximately(&directions, k, &mut approximate, 1e-7);
+    linearization.apply_approximately(&directions, k, &mut approximate, 1e-4);
     let scale = product.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let apart = (approximate.iter().zip(&product)).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     assert!(
-        apart <= 1e-6 * scale,
+        apart <= 1e-4 * scale,
         "approximate products {apart:e} of {scale:e} apart"
     );
 }
