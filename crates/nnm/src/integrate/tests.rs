@@ -203,6 +203,17 @@ fn rejects_bad_requests() {
 // Gauss–Legendre collocation
 // ------------------------------------------------------------------------------------------
 
+/// The clamped 10-element von Kármán beam (27 dofs, nonlinear on every one): the integrators'
+/// tests of split stage systems.
+pub(super) fn ten_element_von_karman_beam() -> crate::model::Structure {
+    crate::model::VonKarmanBeam {
+        elements: 10,
+        ..Default::default()
+    }
+    .build()
+    .unwrap()
+}
+
 pub(super) fn tight() -> Tolerances {
     Tolerances {
         relative: 1e-12,
@@ -596,13 +607,7 @@ fn low_rank_stage_solves_equal_the_whole_factorisation() {
 /// and Radau5.
 #[test]
 fn split_stage_solves_equal_the_whole_factorisation() {
-    use crate::model::VonKarmanBeam;
-    let system = VonKarmanBeam {
-        elements: 10,
-        ..Default::default()
-    }
-    .build()
-    .unwrap();
+    let system = ten_element_von_karman_beam();
     let n = system.dofs();
     let n2 = 2 * n;
     // Nodes 1..=9 carry (u, w, θ): w = a sin²(π ξ) (clamped shape), θ = w', u a stretch.

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::integrate::RADAU5;
-use crate::integrate::tests::{assert_close_to_round_off, tight};
+use crate::integrate::tests::{assert_close_to_round_off, ten_element_von_karman_beam, tight};
 use crate::model::{ForcedSystem, HarmonicForce, Matrix, MechanicalSystem, SparseMatrix};
 
 /// A damped von Kármán beam (10 elements, nonlinear on every dof) driven from rest near its
@@ -15,13 +15,7 @@ use crate::model::{ForcedSystem, HarmonicForce, Matrix, MechanicalSystem, Sparse
 /// Newton correction takes (stage solves to 1e-4) within 1e-4 of them.
 #[test]
 fn split_forced_stage_solves_equal_the_whole_factorisation() {
-    use crate::model::VonKarmanBeam;
-    let system = VonKarmanBeam {
-        elements: 10,
-        ..Default::default()
-    }
-    .build()
-    .unwrap();
+    let system = ten_element_von_karman_beam();
     let n = system.dofs();
     let n2 = 2 * n;
     // A damping that couples neighbouring dofs (a scaled graph Laplacian: symmetric, positive
@@ -103,13 +97,7 @@ fn split_forced_stage_solves_equal_the_whole_factorisation() {
 /// same steps, to round-off.
 #[test]
 fn stage_divergence_retries_on_more_steps() {
-    use crate::model::VonKarmanBeam;
-    let system = VonKarmanBeam {
-        elements: 10,
-        ..Default::default()
-    }
-    .build()
-    .unwrap();
+    let system = ten_element_von_karman_beam();
     let n = system.dofs();
     let damping = crate::forced::damping::Damping::Rayleigh([0.0, 1e-5])
         .matrix(&system)
