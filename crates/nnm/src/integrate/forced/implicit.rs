@@ -61,6 +61,12 @@ const MAX_STEPS: usize = 200_000;
 /// Integrations taken again on more steps after the stage equations diverged, before that is
 /// an error: 1.5⁶ ≈ 11 times the steps.
 const STAGE_RETRIES: usize = 6;
+
+/// The steps a period to take again on after the stage equations diverged on `steps`: half
+/// again as many (at least one more, at most [`MAX_STEPS`]).
+fn half_again(steps: usize) -> usize {
+    (steps + steps / 2).max(steps + 1).min(MAX_STEPS)
+}
 /// The step count controls the error of the motion below this many harmonics of the force
 /// (the low-pass filter of the module notes).
 const CUTOFF_HARMONICS: f64 = 16.0;
@@ -469,9 +475,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
                 Err(IntegrationError::StagesDiverged { .. })
                     if retry < STAGE_RETRIES && self.steps < MAX_STEPS =>
                 {
-                    self.steps = (self.steps + self.steps / 2)
-                        .max(self.steps + 1)
-                        .min(MAX_STEPS);
+                    self.steps = half_again(self.steps);
                     self.least_steps = self.steps;
                 }
                 result => return result,
@@ -804,7 +808,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
             let ((fine, _), (coarse, _)) = match pair {
                 // Steps too long for the stage iteration are too long for the estimate too.
                 Err(IntegrationError::StagesDiverged { .. }) if steps < MAX_STEPS => {
-                    self.steps = (steps + steps / 2).min(MAX_STEPS);
+                    self.steps = half_again(steps);
                     continue;
                 }
                 pair => pair?,
