@@ -100,6 +100,11 @@ impl<'s> From<&'s Settings> for SettingsView<'s> {
     }
 }
 
+/// The least integrator tolerance `integration_factor × tolerance` a job may ask for: two
+/// decades below double precision's round-off (the smallest shooting tolerance, 1e-14, at
+/// the default factor 1e-3 asks for 1e-17).
+pub const MIN_INTEGRATION_TOLERANCE: f64 = 1e-18;
+
 /// Checks a relative `tolerance`: positive, finite, from [`MIN_TOLERANCE`] (what double
 /// precision can meet) to below 1e-2 (looser is no result). [`Settings::validate`] holds the
 /// continuation's `tolerance` to it, and front ends hold any other relative tolerance a user
@@ -192,6 +197,26 @@ impl Settings {
             return fail(format!(
                 "integration_factor {} must not exceed 1 (the integrator must be at least as accurate as the shooting tolerance)",
                 Number(self.integration.integration_factor)
+            ));
+        }
+        let method = self.integration.integrator;
+        if self.shooting.formulation == crate::shooting::Formulation::MatrixFree
+            && !method.is_auto()
+            && !method.is_collocation()
+        {
+            return fail(format!(
+                "formulation = \"matrix-free\" needs an implicit collocation integrator (gauss4, gauss6, radau5, radau9), not {}",
+                method.name()
+            ));
+        }
+        // Far below round-off no integrator can meet its tolerance: the first point would
+        // fail after files are written, where the job can be refused before.
+        let integration = self.integration.integration_factor * c.tolerance;
+        if integration < MIN_INTEGRATION_TOLERANCE {
+            return fail(format!(
+                "integration_factor {} × tolerance {} = {integration:e} is below {MIN_INTEGRATION_TOLERANCE:e}, which double precision cannot meet",
+                Number(self.integration.integration_factor),
+                Number(c.tolerance)
             ));
         }
         if c.max_turn_angle > std::f64::consts::PI {

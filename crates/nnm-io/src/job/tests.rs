@@ -856,6 +856,14 @@ fn refused_numbers_are_shown_short() {
             "job.toml: branch 1: invalid setting: integration_factor 1e200 must not exceed 1 (the integrator must be at least as accurate as the shooting tolerance)",
         ),
         (
+            format!("{branch}energy_max = 1.0\nformulation = \"matrix-free\"\nintegrator = \"dop853\""),
+            "job.toml: branch 1: invalid setting: formulation = \"matrix-free\" needs an implicit collocation integrator (gauss4, gauss6, radau5, radau9), not dop853",
+        ),
+        (
+            format!("{branch}energy_max = 1.0\nintegration_factor = 1e-300"),
+            "job.toml: branch 1: invalid setting: integration_factor 1e-300 × tolerance 1e-8 = 1e-308 is below 1e-18, which double precision cannot meet",
+        ),
+        (
             format!("{branch}energy_max = 1.0\nmax_turn_angle = 1e100"),
             "job.toml: branch 1: invalid setting: max_turn_angle 1e100 exceeds π",
         ),
