@@ -293,54 +293,94 @@ impl SparseCholesky {
 pub const CANCELLATION: f64 = 1e8;
 
 /// `init + Σ_k values_k x[columns_k]`, a sparse row applied to `x`: summed plainly, and
-/// again in twice the working precision ([`accurate_dot`]) when the terms cancel more than
+/// again in twice the working precision ([`accurate_sum`] of [`exact_product`]s, Dot2) when the terms cancel more than
 /// [`CANCELLATION`]-fold — what finite-element rows do on smooth fields, by `(ω_max/ω)²`
 /// (docs/method.md §15, eq. (76c)). The plain pass costs one absolute value more per term;
 /// a 19-element beam never needs the second, a 1,000-element one nearly always.
 pub fn sparse_row_dot(init: f64, columns: &[usize], values: &[f64], x: &[f64]) -> f64 {
+    let row = || columns.iter().zip(values).map(|(&c, &v)| (v, x[c]));
+    cancelling_sum(
+        init,
+        row().map(|(v, x)| v * x),
+        || row().map(|(v, x)| exact_product(v, x)),
+        CANCELLATION,
+    )
+}
+
+/// `init + Σ terms`: summed plainly, and again in twice the working precision from the same
+/// terms given exactly (`head + tail`, [`accurate_sum`]) when they cancel more than
+/// `cancellation`-fold (`Σ|terms| / |sum|`; docs/method.md eqs. (57a), (76c)). The plain pass
+/// costs one absolute value more per term; the plain sum is left with up to `ε` times
+/// `cancellation` of round-off per term.
+#[inline(always)]
+pub fn cancelling_sum<E: Iterator<Item = (f64, f64)>>(
+    init: f64,
+    terms: impl Iterator<Item = f64>,
+    exact_terms: impl FnOnce() -> E,
+    cancellation: f64,
+) -> f64 {
     let (mut sum, mut size) = (init, init.abs());
-    for (&c, &v) in columns.iter().zip(values) {
-        let term = v * x[c];
+    for term in terms {
         sum += term;
         size += term.abs();
     }
-    if size <= CANCELLATION * sum.abs() {
+    if size <= cancellation * sum.abs() {
         return sum;
     }
-    let row = || columns.iter().zip(values).map(|(&c, &v)| (v, x[c]));
+    with_fused_multiply_add(|| accurate_sum(init, exact_terms()))
+}
+
+/// `work()` compiled with the fused multiply-add where the CPU has it: the error-free
+/// product ([`exact_product`]) is one instruction with FMA, a call into libm without it
+/// (x86-64's baseline lacks FMA) — the same correctly rounded result either way, 3% off the
+/// first points of the 1,000-element beam (7.00 → 6.62–6.90 s), where the libm call alone
+/// took 2.8% of a profile (3.7% at 10⁴ dofs). `work` must be inlined into it (the
+/// accumulations below are `#[inline(always)]`).
+#[inline(always)]
+pub fn with_fused_multiply_add<R>(work: impl FnOnce() -> R) -> R {
     #[cfg(target_arch = "x86_64")]
     {
-        // The error-free product is one instruction with FMA, a call into libm without it
-        // (x86-64's baseline lacks FMA): the same correctly rounded result either way, 3%
-        // off the first points of the 1,000-element beam (7.00 → 6.62–6.90 s), where the
-        // libm call alone took 2.8% of a profile (3.7% at 10⁴ dofs).
         #[target_feature(enable = "fma")]
-        fn with_fma(init: f64, pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
-            accurate_dot(init, pairs)
+        fn with_fma<R>(work: impl FnOnce() -> R) -> R {
+            work()
         }
         if std::arch::is_x86_feature_detected!("fma") {
             // SAFETY: the CPU supports FMA (checked just above).
-            return unsafe { with_fma(init, row()) };
+            return unsafe { with_fma(work) };
         }
     }
-    accurate_dot(init, row())
+    work()
 }
 
-/// `init + Σ a_k b_k` accumulated in twice the working precision (Ogita, Rump & Oishi's Dot2:
-/// error-free products by `mul_add`, error-free sums), as if computed in quadruple precision
-/// and rounded once; about five times a plain sum's work.
+/// `(p, e)` with `p = fl(a b)` and `a b = p + e` exactly (an error-free product by `mul_add`).
 #[inline(always)]
-pub fn accurate_dot(init: f64, pairs: impl Iterator<Item = (f64, f64)>) -> f64 {
+pub fn exact_product(a: f64, b: f64) -> (f64, f64) {
+    let p = a * b;
+    (p, a.mul_add(b, -p))
+}
+
+/// `init + Σ (head_k + tail_k)` accumulated in twice the working precision (Ogita, Rump &
+/// Oishi's Sum2 with each term given to twice the precision as `head + tail`, `|tail| ≤ u
+/// |head|`: error-free sums of the heads, the tails and the sums' errors added plainly), as
+/// if computed in quadruple precision and rounded once. With the terms of
+/// [`exact_product`] it is their Dot2, about five times a plain sum's work.
+#[inline(always)]
+pub fn accurate_sum(init: f64, terms: impl Iterator<Item = (f64, f64)>) -> f64 {
     let (mut sum, mut error) = (init, 0.0f64);
-    for (a, b) in pairs {
-        let product = a * b;
-        let product_error = a.mul_add(b, -product);
-        let total = sum + product;
-        let back = total - sum;
-        error += (sum - (total - back)) + (product - back) + product_error;
+    for (head, tail) in terms {
+        let (total, lost) = exact_sum(sum, head);
+        error += lost + tail;
         sum = total;
     }
     sum + error
+}
+
+/// `(s, e)` with `s = fl(a + b)` and `a + b = s + e` exactly (Knuth's two-sum).
+#[inline(always)]
+pub fn exact_sum(a: f64, b: f64) -> (f64, f64) {
+    let s = a + b;
+    let back = s - a;
+    (s, (a - (s - back)) + (b - back))
 }
 
 /// Eigenvalues (ascending) and orthonormal eigenvectors of a symmetric matrix.

@@ -56,21 +56,6 @@ pub(super) struct Csr {
     pub value: Vec<f64>,
 }
 
-/// `(s, e)` with `s = fl(a + b)` and `a + b = s + e` exactly (Knuth's two-sum).
-#[inline]
-fn two_sum(a: f64, b: f64) -> (f64, f64) {
-    let s = a + b;
-    let bb = s - a;
-    (s, (a - (s - bb)) + (b - bb))
-}
-
-/// `(p, e)` with `p = fl(a b)` and `a b = p + e` exactly (the fused multiply-add).
-#[inline]
-fn two_prod(a: f64, b: f64) -> (f64, f64) {
-    let p = a * b;
-    (p, a.mul_add(b, -p))
-}
-
 impl Csr {
     /// The non-zeros of a dense column-major `n × n` matrix (the dense path's operators).
     pub fn from_dense(a: &linalg::Mat<f64>) -> Self {
@@ -108,8 +93,8 @@ impl Csr {
         for i in 0..self.n {
             let (mut s, mut e) = (0.0, 0.0);
             for k in self.row_start[i]..self.row_start[i + 1] {
-                let (p, pe) = two_prod(self.value[k], v[self.col[k]]);
-                let (t, te) = two_sum(s, p);
+                let (p, pe) = linalg::exact_product(self.value[k], v[self.col[k]]);
+                let (t, te) = linalg::exact_sum(s, p);
                 s = t;
                 e += te + pe;
             }
@@ -402,8 +387,8 @@ pub(super) fn check(ops: &Operators, v: &[f64], r: &mut [f64]) -> Check {
     let vmv = linalg::dot(v, &mh) + linalg::dot(v, &ml);
     let theta = vkv / vmv;
     for i in 0..n {
-        let (p, pe) = two_prod(theta, mh[i]);
-        let (s, se) = two_sum(kh[i], -p);
+        let (p, pe) = linalg::exact_product(theta, mh[i]);
+        let (s, se) = linalg::exact_sum(kh[i], -p);
         r[i] = s + (se + kl[i] - pe - theta * ml[i]);
     }
     let kv = linalg::norm(&kh);
