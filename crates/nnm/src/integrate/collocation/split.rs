@@ -27,6 +27,7 @@
 use std::sync::Arc;
 
 use faer::c64;
+use rayon::prelude::*;
 
 use super::tableaux::StageMethod;
 use super::tangents::StageTangents;
@@ -40,6 +41,12 @@ use crate::model::SparseMatrix;
 /// Above 10⁴ dofs the whole factorisations a matrix-free integration records grow past what a
 /// workstation holds (~16 GB at 10⁵ dofs, ~6.5 GB split).
 pub const SPLIT_DOFS: usize = 10_000;
+
+/// Models of at least this many dofs solve their split systems (and form the stage residuals
+/// of the refinement) side by side on the threads of the current pool: each is then a
+/// fraction of a millisecond or more of work; below, comparable to handing it to another
+/// thread. The results are the same to the last bit.
+const PARALLEL_DOFS: usize = 2_000;
 
 /// Most refinement sweeps of an exact stage solve ([`SplitLu::solve_exact`]); a step whose
 /// tangent changes so much that they do not suffice has a step far too long for its error
@@ -260,13 +267,37 @@ impl SplitLu {
         let s = self.eigen.s;
         let m = b.len() / cols.max(1);
         let n = m / s;
+        // One system's share of `P⁻¹ b`: `k` counts the real systems, then the pairs. A
+        // conjugate pair's partner contributes the conjugate: together, twice the real part.
+        let share = |k: usize, out: &mut [f64]| match self.real.get(k) {
+            Some(lu) => {
+                let (_, t, tinv) = &self.eigen.real[k];
+                split_solve(lu, (t, tinv), b, out, (n, cols), 1.0);
+            }
+            None => {
+                let k = k - self.real.len();
+                let (_, t, tinv) = &self.eigen.complex[k];
+                split_solve(&self.complex[k], (t, tinv), b, out, (n, cols), 2.0);
+            }
+        };
+        let systems = self.real.len() + self.complex.len();
         let mut out = vec![0.0; b.len()];
-        for (lu, (_, t, tinv)) in self.real.iter().zip(&self.eigen.real) {
-            split_solve(lu, (t, tinv), b, &mut out, (n, cols), 1.0);
-        }
-        // A conjugate pair's partner contributes the conjugate: together, twice the real part.
-        for (lu, (_, t, tinv)) in self.complex.iter().zip(&self.eigen.complex) {
-            split_solve(lu, (t, tinv), b, &mut out, (n, cols), 2.0);
+        if n < PARALLEL_DOFS {
+            (0..systems).for_each(|k| share(k, &mut out));
+        } else {
+            // The systems are independent: solved side by side, each into its own buffer,
+            // then added in the order above, so the sum is the same to the last bit.
+            let shares: Vec<Vec<f64>> = (0..systems)
+                .into_par_iter()
+                .map(|k| {
+                    let mut own = vec![0.0; b.len()];
+                    share(k, &mut own);
+                    own
+                })
+                .collect();
+            for own in shares {
+                out.iter_mut().zip(own).for_each(|(o, v)| *o += v);
+            }
         }
         b.copy_from_slice(&out);
     }
@@ -279,8 +310,6 @@ impl SplitLu {
         let n = m / s;
         let pattern = self.mass.pattern();
         let values = self.mass.values();
-        let mut mixed = vec![0.0; n];
-        let mut product = vec![0.0; n];
         let combine = |weights: &[f64], xc: &[f64], i: usize, mixed: &mut [f64]| {
             mixed.fill(0.0);
             for j in 0..s {
@@ -291,27 +320,35 @@ impl SplitLu {
                     .for_each(|(y, x)| *y += a * x);
             }
         };
-        for col in 0..cols {
+        // Stage `i` of column `col`: its own tangent, independent of the other stages'.
+        let stage = |block: usize, oi: &mut [f64]| {
+            let (col, i) = (block / s, block % s);
             let xc = &x[col * m..(col + 1) * m];
-            let oc = &mut out[col * m..(col + 1) * m];
-            for i in 0..s {
-                combine(&self.hh_abar, xc, i, &mut mixed);
-                tangents.apply_plain(i, &mixed, &mut product);
-                if let Some(damping) = &self.damping {
-                    combine(&self.h_a, xc, i, &mut mixed);
-                    damping.apply_add(1.0, &mixed, n, 1, &mut product, n);
-                }
-                let xi = &xc[i * n..(i + 1) * n];
-                for (r, o) in oc[i * n..(i + 1) * n].iter_mut().enumerate() {
-                    let span = pattern.row_start[r]..pattern.row_start[r + 1];
-                    let mass: f64 = pattern.col[span.clone()]
-                        .iter()
-                        .zip(&values[span])
-                        .map(|(&c, v)| v * xi[c])
-                        .sum();
-                    *o = mass + product[r];
-                }
+            let (mut mixed, mut product) = (vec![0.0; n], vec![0.0; n]);
+            combine(&self.hh_abar, xc, i, &mut mixed);
+            tangents.apply_plain(i, &mixed, &mut product);
+            if let Some(damping) = &self.damping {
+                combine(&self.h_a, xc, i, &mut mixed);
+                damping.apply_add(1.0, &mixed, n, 1, &mut product, n);
             }
+            let xi = &xc[i * n..(i + 1) * n];
+            for (r, o) in oi.iter_mut().enumerate() {
+                let span = pattern.row_start[r]..pattern.row_start[r + 1];
+                let mass: f64 = pattern.col[span.clone()]
+                    .iter()
+                    .zip(&values[span])
+                    .map(|(&c, v)| v * xi[c])
+                    .sum();
+                *o = mass + product[r];
+            }
+        };
+        let out = &mut out[..cols * m];
+        if n < PARALLEL_DOFS {
+            out.chunks_mut(n).enumerate().for_each(|(b, oi)| stage(b, oi));
+        } else {
+            out.par_chunks_mut(n)
+                .enumerate()
+                .for_each(|(b, oi)| stage(b, oi));
         }
     }
 
