@@ -16,8 +16,10 @@ use crate::fep;
 use crate::out_dir::{OutDir, foreign_branches};
 use crate::response;
 
-/// Computes every branch of the job file `job_path` into `out` (docs/output.md), on `threads`
-/// worker threads (default one per core).
+/// Computes every branch and response curve of the job file `job_path` into `out`
+/// (docs/output.md), on `threads` worker threads (default one per core): branches side by
+/// side, the curves one after another, a large model's split stage solves on the same
+/// threads.
 pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool) -> Result<()> {
     let job = load_job(job_path)?;
     if job.branches.is_empty() && job.responses.is_empty() {
@@ -44,7 +46,12 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
     }
     let curves = match &job.damping {
         Some(damping) if !job.responses.is_empty() => {
-            response::run_responses(&job.structure, damping, &job.responses, out)?
+            // One curve at a time; `threads` bounds what a large model's stage solves share.
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.unwrap_or(0))
+                .build()
+                .context("cannot start worker threads")?
+                .install(|| response::run_responses(&job.structure, damping, &job.responses, out))?
         }
         _ => Vec::new(),
     };

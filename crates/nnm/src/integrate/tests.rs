@@ -214,6 +214,21 @@ pub(super) fn ten_element_von_karman_beam() -> crate::model::Structure {
     .unwrap()
 }
 
+/// A clamped von Kármán beam of `elements` elements (unit length) at rest, bent to its
+/// thickness (1 cm) in the clamped shape and stretched: the interior nodes carry
+/// `(u, w, θ)` with `w = a sin²(π ξ)`, `θ = w'`, `u = 1e-5 sin 2πξ`.
+pub(super) fn bent_clamped_state(elements: usize) -> Vec<f64> {
+    let a = 0.01;
+    let mut z0 = vec![0.0; 6 * (elements - 1)];
+    for node in 1..elements {
+        let phase = std::f64::consts::PI * node as f64 / elements as f64;
+        z0[3 * (node - 1)] = 1e-5 * (2.0 * phase).sin();
+        z0[3 * (node - 1) + 1] = a * phase.sin().powi(2);
+        z0[3 * (node - 1) + 2] = a * std::f64::consts::PI * (2.0 * phase).sin();
+    }
+    z0
+}
+
 pub(super) fn tight() -> Tolerances {
     Tolerances {
         relative: 1e-12,
@@ -608,18 +623,8 @@ fn low_rank_stage_solves_equal_the_whole_factorisation() {
 #[test]
 fn split_stage_solves_equal_the_whole_factorisation() {
     let system = ten_element_von_karman_beam();
-    let n = system.dofs();
-    let n2 = 2 * n;
-    // Nodes 1..=9 carry (u, w, θ): w = a sin²(π ξ) (clamped shape), θ = w', u a stretch.
-    let (a, length) = (0.01, 1.0);
-    let mut z0 = vec![0.0; n2];
-    for node in 1..10 {
-        let xi = length * node as f64 / 10.0;
-        let phase = std::f64::consts::PI * xi;
-        z0[3 * (node - 1)] = 1e-5 * (2.0 * phase).sin();
-        z0[3 * (node - 1) + 1] = a * phase.sin().powi(2);
-        z0[3 * (node - 1) + 2] = a * std::f64::consts::PI * (2.0 * phase).sin();
-    }
+    let n2 = 2 * system.dofs();
+    let z0 = bent_clamped_state(10);
     let k = 3;
     let directions: Vec<f64> = (0..n2 * k).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
     let steps = [0.01 / 48.0; 48];
@@ -652,25 +657,20 @@ fn split_stage_solves_equal_the_whole_factorisation() {
 
 /// Above `PARALLEL_DOFS` the split systems are solved, and the refinement's stage residuals
 /// formed, on the threads of the pool: the motion and the recorded products of a
-/// 700-element von Kármán beam (2,097 dofs) are the same to the last bit on one thread and
+/// 3,336-element von Kármán beam (10,005 dofs) are the same to the last bit on one thread and
 /// on two.
 #[test]
 fn split_stage_solves_are_the_same_on_one_thread_and_on_two() {
+    let elements = 3336;
     let system = crate::model::VonKarmanBeam {
-        elements: 700,
+        elements,
         ..Default::default()
     }
     .build()
     .unwrap();
     let n2 = 2 * system.dofs();
-    // Bent to its thickness in the clamped shape, as the 10-element test's beam.
-    let mut z0 = vec![0.0; n2];
-    for node in 1..700 {
-        let phase = std::f64::consts::PI * node as f64 / 700.0;
-        z0[3 * (node - 1)] = 1e-5 * (2.0 * phase).sin();
-        z0[3 * (node - 1) + 1] = 0.01 * phase.sin().powi(2);
-        z0[3 * (node - 1) + 2] = 0.01 * std::f64::consts::PI * (2.0 * phase).sin();
-    }
+    assert!(n2 / 2 >= super::collocation::SPLIT_DOFS);
+    let z0 = bent_clamped_state(elements);
     let directions: Vec<f64> = (0..n2).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
     let steps = [1e-4; 3];
     let run = |threads: usize| {
@@ -679,8 +679,7 @@ fn split_stage_solves_are_the_same_on_one_thread_and_on_two() {
             .build()
             .unwrap();
         pool.install(|| {
-            let mut integrator =
-                GaussLegendre::new(&system, &RADAU5, tight()).with_split_stages();
+            let mut integrator = GaussLegendre::new(&system, &RADAU5, tight()).with_split_stages();
             let (flow, linearization) = integrator
                 .flow_linearized(&z0, 3e-4, Steps::Replay(&steps))
                 .unwrap();
