@@ -97,6 +97,9 @@ impl PolynomialTerms {
     }
 }
 
+/// One term `(i, [t_1 … t_N], c)`: `f_i += c Π_p x_{t_p}`.
+type Term<const N: usize> = (usize, [usize; N], f64);
+
 /// Terms `f_i += c Π_p x_{t_p}` of one degree `N`.
 #[derive(Debug, Clone, PartialEq)]
 struct Terms<const N: usize> {
@@ -292,7 +295,7 @@ impl<const N: usize> Terms<N> {
 
     /// The terms grouped by row (stably: a row's terms in the order given), so that a row's
     /// sum is formed in one place and can be redone when it cancels ([`Self::row_force`]).
-    fn by_row(mut terms: Vec<(usize, [usize; N], f64)>) -> Self {
+    fn by_row(mut terms: Vec<Term<N>>) -> Self {
         terms.sort_by_key(|&(i, _, _)| i);
         Self { terms }
     }
@@ -304,7 +307,7 @@ impl<const N: usize> Terms<N> {
     }
 
     /// The terms of each row (one output dof `i`), in the order given.
-    fn rows(&self) -> impl Iterator<Item = (usize, &[(usize, [usize; N], f64)])> {
+    fn rows(&self) -> impl Iterator<Item = (usize, &[Term<N>])> {
         self.terms
             .chunk_by(|a, b| a.0 == b.0)
             .map(|row| (row[0].0, row))
@@ -317,7 +320,7 @@ impl<const N: usize> Terms<N> {
     /// difference first. Summed plainly, that round-off (3e-7–9e-7 of the shooting residual
     /// at 10⁴ dofs) was what the corrector stalled on.
     #[inline]
-    fn row_force(init: f64, row: &[(usize, [usize; N], f64)], x: &[f64]) -> f64 {
+    fn row_force(init: f64, row: &[Term<N>], x: &[f64]) -> f64 {
         let monomial = |t: &[usize; N], c: f64| t.iter().fold(c, |p, &d| p * x[d]);
         let exact_monomial = |t: &[usize; N], c: f64| {
             t.iter().fold((c, 0.0), |(head, tail), &d| {
