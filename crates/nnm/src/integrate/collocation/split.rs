@@ -249,6 +249,14 @@ fn split_solve<T: SplitScalar>(
     }
 }
 
+/// The buffers an exact solve's refinement sweeps reuse: one share of `P⁻¹ b` per split
+/// system, and the `Σ_j Ā_ij x_j`-type combination and tangent product of each stage block.
+#[derive(Default)]
+struct Scratch {
+    shares: Vec<Vec<f64>>,
+    stages: Vec<(Vec<f64>, Vec<f64>)>,
+}
+
 /// `P` of one step, factorised ([`SplitStages::factorise`]).
 #[derive(Clone)]
 pub(in crate::integrate) struct SplitLu {
@@ -266,11 +274,18 @@ impl SplitLu {
     /// `P⁻¹ B` in place for `cols` columns of `s n` (stage-major): `(T⁻¹⊗I) b`, each split
     /// system solved, `(T⊗I)` back.
     pub(super) fn solve_in_place(&self, b: &mut [f64], cols: usize) {
+        self.solve_with(b, cols, &mut Scratch::default());
+    }
+
+    /// [`Self::solve_in_place`] with the buffers of `scratch` (an exact solve's sweeps reuse
+    /// them: allocated afresh, the 10⁴-dof beam's ~2.5 MB a sweep were page faults).
+    fn solve_with(&self, b: &mut [f64], cols: usize, scratch: &mut Scratch) {
         let s = self.eigen.s;
         let m = b.len() / cols.max(1);
         let n = m / s;
-        // One system's share of `P⁻¹ b`: `k` counts the real systems, then the pairs. A
-        // conjugate pair's partner contributes the conjugate: together, twice the real part.
+        // One system's share of `P⁻¹ b` added to `out`: `k` counts the real systems, then the
+        // pairs. A conjugate pair's partner contributes the conjugate: together, twice the
+        // real part.
         let share = |k: usize, out: &mut [f64]| match self.real.get(k) {
             Some(lu) => {
                 let (_, t, tinv) = &self.eigen.real[k];
@@ -283,30 +298,41 @@ impl SplitLu {
             }
         };
         let systems = self.real.len() + self.complex.len();
-        let mut out = vec![0.0; b.len()];
-        if n < PARALLEL_DOFS {
-            (0..systems).for_each(|k| share(k, &mut out));
-        } else {
-            // The systems are independent: solved side by side, each into its own buffer,
-            // then added in the order above, so the sum is the same to the last bit.
-            let shares: Vec<Vec<f64>> = (0..systems)
-                .into_par_iter()
-                .map(|k| {
-                    let mut own = vec![0.0; b.len()];
-                    share(k, &mut own);
-                    own
-                })
-                .collect();
-            for own in shares {
-                out.iter_mut().zip(own).for_each(|(o, v)| *o += v);
-            }
+        let shares = &mut scratch.shares;
+        shares.resize_with(systems, Vec::new);
+        for own in shares.iter_mut() {
+            own.clear();
+            own.resize(b.len(), 0.0);
         }
-        b.copy_from_slice(&out);
+        if n < PARALLEL_DOFS {
+            shares
+                .iter_mut()
+                .enumerate()
+                .for_each(|(k, own)| share(k, own));
+        } else {
+            // The systems are independent: solved side by side, each into its own buffer.
+            shares
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(k, own)| share(k, own));
+        }
+        // Added in the systems' order, so the sum is the same to the last bit on any number
+        // of threads.
+        for (i, bi) in b.iter_mut().enumerate() {
+            *bi = shares.iter().fold(0.0, |sum, own| sum + own[i]);
+        }
     }
 
     /// `J X` for `cols` columns (`s n` each): `(J x)_i = M x_i + C Σ_j h A_ij x_j +
     /// K_t(X_i) Σ_j h² Ā_ij x_j`.
-    fn apply_exact(&self, x: &[f64], cols: usize, tangents: &StageTangents, out: &mut [f64]) {
+    fn apply_exact(
+        &self,
+        x: &[f64],
+        cols: usize,
+        tangents: &StageTangents,
+        out: &mut [f64],
+        scratch: &mut Scratch,
+    ) {
         let s = self.eigen.s;
         let m = x.len() / cols.max(1);
         let n = m / s;
@@ -323,15 +349,14 @@ impl SplitLu {
             }
         };
         // Stage `i` of column `col`: its own tangent, independent of the other stages'.
-        let stage = |block: usize, oi: &mut [f64]| {
+        let stage = |block: usize, oi: &mut [f64], (mixed, product): &mut (Vec<f64>, Vec<f64>)| {
             let (col, i) = (block / s, block % s);
             let xc = &x[col * m..(col + 1) * m];
-            let (mut mixed, mut product) = (vec![0.0; n], vec![0.0; n]);
-            combine(&self.hh_abar, xc, i, &mut mixed);
-            tangents.apply_plain(i, &mixed, &mut product);
+            combine(&self.hh_abar, xc, i, mixed);
+            tangents.apply_plain(i, mixed, product);
             if let Some(damping) = &self.damping {
-                combine(&self.h_a, xc, i, &mut mixed);
-                damping.apply_add(1.0, &mixed, n, 1, &mut product, n);
+                combine(&self.h_a, xc, i, mixed);
+                damping.apply_add(1.0, mixed, n, 1, product, n);
             }
             let xi = &xc[i * n..(i + 1) * n];
             for (r, o) in oi.iter_mut().enumerate() {
@@ -345,14 +370,16 @@ impl SplitLu {
             }
         };
         let out = &mut out[..cols * m];
+        let buffers = &mut scratch.stages;
+        buffers.resize_with(cols * s, || (vec![0.0; n], vec![0.0; n]));
         if n < PARALLEL_DOFS {
-            out.chunks_mut(n)
-                .enumerate()
-                .for_each(|(b, oi)| stage(b, oi));
+            (out.chunks_mut(n).zip(buffers.iter_mut()).enumerate())
+                .for_each(|(b, (oi, buffer))| stage(b, oi, buffer));
         } else {
-            out.par_chunks_mut(n)
-                .enumerate()
-                .for_each(|(b, oi)| stage(b, oi));
+            (out.par_chunks_mut(n)
+                .zip(buffers.par_iter_mut())
+                .enumerate())
+            .for_each(|(b, (oi, buffer))| stage(b, oi, buffer));
         }
     }
 
@@ -379,14 +406,15 @@ impl SplitLu {
         accuracy: f64,
     ) -> usize {
         let rhs = b.to_vec();
-        self.solve_in_place(b, cols);
+        let mut scratch = Scratch::default();
+        self.solve_with(b, cols, &mut scratch);
         let size = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         let mut residual = vec![0.0; b.len()];
         let mut previous: Option<f64> = None;
         for sweep in 1..=MAX_REFINEMENTS {
-            self.apply_exact(b, cols, tangents, &mut residual);
+            self.apply_exact(b, cols, tangents, &mut residual, &mut scratch);
             residual.iter_mut().zip(&rhs).for_each(|(r, b)| *r = b - *r);
-            self.solve_in_place(&mut residual, cols);
+            self.solve_with(&mut residual, cols, &mut scratch);
             let correction = size(&residual);
             b.iter_mut().zip(&residual).for_each(|(x, d)| *x += d);
             let relative = correction / size(b).max(f64::MIN_POSITIVE);
