@@ -13,10 +13,10 @@ use crate::linalg;
 /// Built only when the force derives from a potential (eq. (59): the coefficients averaged
 /// over the trailing indices form a fully symmetric tensor), so that
 /// `V = ⅓ xᵀ f₂(x) + ¼ xᵀ f₃(x)` (eq. (58), Euler's theorem for homogeneous forms) is its
-/// potential and the energy the continuation plots is conserved. Terms are kept as given, grouped by row
-/// (repeated positions add up); force, tangent and potential cost `O(terms)`, and the tangent
-/// is given on the element's own sparse pattern (eq. (60)), never as a dense block over the
-/// dofs it touches.
+/// potential and the energy the continuation plots is conserved. Terms are kept as given,
+/// grouped by row (repeated positions add up); force, tangent and potential cost `O(terms)`,
+/// and the tangent is given on the element's own sparse pattern (eq. (60)), never as a dense
+/// block over the dofs it touches.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PolynomialTensor {
     dofs: usize,

@@ -752,6 +752,16 @@ mod tests {
         }
     }
 
+    /// The mesh's polynomial terms summed over its elements and read back as one tensor, as
+    /// `nnm export` writes them and a `tensor` element reads them (checked a gradient).
+    fn exported_tensor(s: &Structure) -> crate::model::PolynomialTensor {
+        let mut terms = PolynomialTerms::default();
+        for e in s.elements() {
+            terms.append(e.polynomial_terms().expect("a polynomial element"));
+        }
+        terms.summed().into_tensor(s.dofs()).expect("a gradient")
+    }
+
     /// The elements' polynomial terms (eq. (64) expanded), summed over the mesh and read back as
     /// one tensor (which also checks that they are a gradient, eq. (59)), give the elements' own
     /// force and tangent — quadrature at each state, not the terms — to 1e-12 of their largest
@@ -762,7 +772,6 @@ mod tests {
         let b = beam(7);
         let s = b.build().unwrap();
         let n = s.dofs();
-        let mut terms = PolynomialTerms::default();
         for e in s.elements() {
             let own = e.polynomial_terms().expect("a polynomial element");
             let used = e.dofs_used();
@@ -770,9 +779,8 @@ mod tests {
                 |i: &usize, t: &[usize]| used.contains(i) && t.iter().all(|d| used.contains(d));
             assert!(own.quadratic.iter().all(|(i, t, _)| on_own_dofs(i, t)));
             assert!(own.cubic.iter().all(|(i, t, _)| on_own_dofs(i, t)));
-            terms.append(own);
         }
-        let tensor = terms.summed().into_tensor(n).expect("a gradient");
+        let tensor = exported_tensor(&s);
         let mut seed: u64 = 0x2545_f491_4f6c_dd1d;
         let mut random = move || {
             seed ^= seed << 13;
@@ -836,11 +844,7 @@ mod tests {
         let b = beam(1000);
         let s = b.build().unwrap();
         let n = s.dofs();
-        let mut terms = PolynomialTerms::default();
-        for e in s.elements() {
-            terms.append(e.polynomial_terms().expect("a polynomial element"));
-        }
-        let tensor = terms.summed().into_tensor(n).expect("a gradient");
+        let tensor = exported_tensor(&s);
         // The first clamped-clamped shape, w = a (1 − cos 2πξ)/2, its slope, and a stretch
         // u = c sin 2πξ of the size the membrane force gives (c ~ a²/L).
         // Each value is cut to 40 significant bits, so that the scaled fields below are

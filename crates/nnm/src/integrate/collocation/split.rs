@@ -298,26 +298,28 @@ impl SplitLu {
             }
         };
         let systems = self.real.len() + self.complex.len();
-        let shares = &mut scratch.shares;
-        shares.resize_with(systems, Vec::new);
-        for own in shares.iter_mut() {
+        let zeroed = |own: &mut Vec<f64>| {
             own.clear();
             own.resize(b.len(), 0.0);
-        }
+        };
+        let shares = &mut scratch.shares;
         if n < PARALLEL_DOFS {
-            shares
-                .iter_mut()
-                .enumerate()
-                .for_each(|(k, own)| share(k, own));
-        } else {
-            // The systems are independent: solved side by side, each into its own buffer.
-            shares
-                .par_iter_mut()
-                .enumerate()
-                .for_each(|(k, own)| share(k, own));
+            // One buffer the shares are added into in turn.
+            shares.resize_with(1, Vec::new);
+            let out = &mut shares[0];
+            zeroed(out);
+            (0..systems).for_each(|k| share(k, out));
+            b.copy_from_slice(out);
+            return;
         }
-        // Added in the systems' order, so the sum is the same to the last bit on any number
-        // of threads.
+        // The systems are independent: solved side by side, each into its own buffer, and
+        // added in the systems' order — the same sum, to the last bit, as one buffer gives
+        // (each system adds one term to an entry) and on any number of threads.
+        shares.resize_with(systems, Vec::new);
+        shares.par_iter_mut().enumerate().for_each(|(k, own)| {
+            zeroed(own);
+            share(k, own);
+        });
         for (i, bi) in b.iter_mut().enumerate() {
             *bi = shares.iter().fold(0.0, |sum, own| sum + own[i]);
         }
