@@ -27,12 +27,11 @@ const GMRES_TOLERANCE: f64 = 1e-11;
 /// A linear residual below this fraction of the continuation's tolerance (times the
 /// unknowns' norm) is small enough whatever the right-hand side (inexact Newton, eq. (74a)).
 const NEWTON_FORCING: f64 = 1e-3;
-/// The accuracy GMRES's products take each step's stage solve to, relative to its largest
-/// stage acceleration — which sits in the stiff components, scaled down by `h²` in the state:
-/// the products then come out within ~3e-5 of exact ones (a 10-element beam started hard from
-/// rest), and an inexact Newton correction contracts by about that. Why not to round-off: on
-/// the 10⁴-dof von Kármán beam (Radau9, split stage systems) that took 6.8 refinement sweeps
-/// a solve, this 1.03, for the same corrections (residuals 1e-11–1e-9 after one iteration).
+/// The accuracy GMRES's products take each step's split stage solve to, relative to the state
+/// the step ends in (docs/method.md eq. (32g)): the products then come out within about that
+/// of exact ones, and an inexact Newton correction contracts by about that. Why not to
+/// round-off: on the 10⁴-dof von Kármán beam (Radau9) this takes 1.7 refinement sweeps a
+/// solve against 3.9, for the same corrections (residuals 1e-11–1e-9 after one iteration).
 /// Arnoldi's products are exact: the multipliers decide stability.
 const NEWTON_PRODUCT_ACCURACY: f64 = 1e-4;
 /// Most GMRES products a solve (memory: this many vectors of `2n + 1`).

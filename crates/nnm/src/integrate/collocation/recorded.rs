@@ -4,6 +4,7 @@
 
 use std::sync::Arc;
 
+use super::split::StepImage;
 use super::stages::StageLu;
 use super::tableaux::Collocation;
 use super::tangents::StageTangents;
@@ -84,7 +85,14 @@ pub(in crate::integrate) fn variational_step(
             }
         }
     }
-    lu.solve_exact(rhs, k, tangents, accuracy);
+    let displacement: Vec<f64> = bbar.iter().map(|b| h * h * b).collect();
+    let velocity: Vec<f64> = method.b.iter().map(|b| h * b).collect();
+    let image = StepImage {
+        displacement: &displacement,
+        velocity: &velocity,
+        start: phi,
+    };
+    lu.solve_exact(rhs, k, tangents, (accuracy, &image));
     for col in 0..k {
         let dw = &rhs[col * m..(col + 1) * m];
         let (px, pv) = phi[col * n2..(col + 1) * n2].split_at_mut(n);

@@ -19,8 +19,9 @@
 //! the stage Newton iteration as an approximate Jacobian (its fixed point is the same: the
 //! converged stages are those of the exact method), and the variational solves `J dW = b` —
 //! which must be exact, so that the monodromy is the derivative of the discrete flow that
-//! shooting's Newton solves — are iterated to round-off with `P` as preconditioner:
-//! `dW ← dW + P⁻¹ (b − J dW)`, with `J`'s action from the stage tangents themselves.
+//! shooting's Newton solves — are iterated with `P` as preconditioner until the corrections
+//! no longer move the step's end state (eq. (32g)): `dW ← dW + P⁻¹ (b − J dW)`, with `J`'s
+//! action from the stage tangents themselves.
 //! `P⁻¹ J − I = P⁻¹ h² diag(K_t(X_i) − K̄) (Ā⊗I)` is the change of the tangent within one
 //! step relative to the stage matrix, small wherever the step resolves the motion.
 
@@ -45,7 +46,7 @@ pub const SPLIT_DOFS: usize = 10_000;
 /// Models of at least this many dofs solve their split systems (and form the stage residuals
 /// of the refinement) side by side on the threads of the current pool; the results are the
 /// same to the last bit. Measured on 2 cores: the 10⁴-dof von Kármán forced curve (refined
-/// solves, ~7 sweeps each) 20 min 47 s → 17 min 2 s with it; the 2,000-dof ECL beam's curve
+/// solves, then ~7 sweeps each) 20 min 47 s → 17 min 2 s with it; the 2,000-dof ECL beam's curve
 /// (its linear part split exactly, one pass a solve) 41.5 → 41.9 s on 125% CPU: nothing
 /// gained there, so the threshold is where the stage systems are split for their size.
 const PARALLEL_DOFS: usize = SPLIT_DOFS;
@@ -54,6 +55,15 @@ const PARALLEL_DOFS: usize = SPLIT_DOFS;
 /// tangent changes so much that they do not suffice has a step far too long for its error
 /// estimate anyway.
 const MAX_REFINEMENTS: usize = 30;
+
+/// A refinement whose correction (eq. (32g)) falls less than half in a sweep has reached the
+/// round-off floor of its residual when the correction is below `FLOOR`, or below
+/// `HIGH_FLOOR` after two such sweeps in a row; above, the iteration is taken as slow rather
+/// than done. On the 10⁴-dof von Kármán beam the floors lie at 3e-8–3e-6 of the end state,
+/// a few up to 5e-5; a second correction barely below the first happens on the way down too
+/// (5.8e-4, then 5.8e-4, then 1e-5).
+const FLOOR: f64 = 1e-6;
+const HIGH_FLOOR: f64 = 1e-4;
 
 /// The eigen-decomposition `A = T Λ T⁻¹` of a collocation method's `A` (so `Ā = A² =
 /// T Λ² T⁻¹`), one entry per real eigenvalue and one per conjugate pair (the one with
@@ -386,52 +396,101 @@ impl SplitLu {
     }
 
     /// `J⁻¹ B` to round-off, in place: `x = P⁻¹ b`, then `x += P⁻¹ (b − J x)` while the
-    /// corrections fall. It stops when the correction is below `1e-15` of `x`, or when the
-    /// next one, extrapolated at the last rate, would be below `1e-13` (what a factorisation
-    /// of the whole stage system leaves: 3e-13 to 1e-11 of the largest entry), or at the
-    /// floor of the residual's round-off (a correction below 1e-6 of `x` that fell less than
-    /// tenfold: ~2e-9 on the 1,000-element von Kármán beam, in the unresolved stiff components
-    /// of the stage accelerations, which move the state by `h²` times as little). On that
-    /// beam's orbits the first correction is ~1e-4 of `x` and the second at the floor: two
-    /// sweeps. Started off any orbit (a 10-element beam released bent to its thickness, axial
-    /// dofs out of equilibrium) the rate is ~3e-3: five. Refinement diverges only where the
-    /// tangent changes within one step by as much as the stage matrix itself, far beyond the
-    /// steps an error estimate chooses. With `accuracy > 0` it stops as soon as a correction
-    /// is below that fraction of `x` (a Newton correction's products need no more; the von
-    /// Kármán beam at 10⁴ dofs, Radau9: 5.8 sweeps a solve to round-off). Returns the sweeps
-    /// made.
+    /// corrections still move the state the step ends in (`image`). It stops when a correction
+    /// moves that state by less than its last bit, or the next one, extrapolated at the last
+    /// rate, would; with `accuracy > 0`, as soon as a correction moves it by less than that
+    /// fraction; and at the floor of the residual's round-off: corrections that fell less
+    /// than half ([`FLOOR`]). Returns the sweeps made.
+    ///
+    /// Why the state and not the stage accelerations: these are largest in the unresolved
+    /// stiff components, which move the state by `h²` times as little, and there the residual
+    /// `b − J x` has a round-off floor (`K_t`'s largest entries times the stages' size): on the
+    /// 10⁴-dof von Kármán beam (Radau9) the stage corrections fell to 2e-6–1e-5 of `x` in two
+    /// or three sweeps and then wandered there, so that a test on them took 11.5 sweeps an exact
+    /// solve (30, the most, for a third of them) and 18 for the parameter columns' 1e-8 —
+    /// sweeps that no longer changed the products. Refinement diverges only where the tangent
+    /// changes within one step by as much as the stage matrix itself, far beyond the steps an
+    /// error estimate chooses.
     pub(super) fn solve_exact(
         &self,
         b: &mut [f64],
         cols: usize,
         tangents: &StageTangents,
-        accuracy: f64,
+        (accuracy, image): (f64, &StepImage),
     ) -> usize {
         let rhs = b.to_vec();
         let mut scratch = Scratch::default();
         self.solve_with(b, cols, &mut scratch);
-        let size = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         let mut residual = vec![0.0; b.len()];
         let mut previous: Option<f64> = None;
+        let mut stalled = false;
         for sweep in 1..=MAX_REFINEMENTS {
             self.apply_exact(b, cols, tangents, &mut residual, &mut scratch);
             residual.iter_mut().zip(&rhs).for_each(|(r, b)| *r = b - *r);
             self.solve_with(&mut residual, cols, &mut scratch);
-            let correction = size(&residual);
             b.iter_mut().zip(&residual).for_each(|(x, d)| *x += d);
-            let relative = correction / size(b).max(f64::MIN_POSITIVE);
-            if relative <= accuracy.max(1e-15) {
+            let relative = image.relative_change(b, &residual, cols);
+            if relative <= accuracy.max(f64::EPSILON) {
                 return sweep;
             }
             if let Some(previous) = previous {
-                let rate = correction / previous;
-                if relative * rate <= 1e-13 || (rate > 0.1 && relative <= 1e-6) {
+                let rate = relative / previous;
+                if relative * rate <= f64::EPSILON {
+                    return sweep;
+                }
+                let was_stalled = stalled;
+                stalled = rate > 0.5;
+                if stalled && (relative <= FLOOR || (was_stalled && relative <= HIGH_FLOOR)) {
                     return sweep;
                 }
             }
-            previous = Some(correction);
+            previous = Some(relative);
         }
         MAX_REFINEMENTS
+    }
+}
+
+/// How a step's stage solution `dW` moves the state the step ends in (eq. (32c)):
+/// `x₁ = x₀ + h v₀ + Σ_j displacement_j dW_j`, `v₁ = v₀ + Σ_j velocity_j dW_j` for each
+/// column of `start` (`[x₀, v₀]`, `2n` a column) — what exact stage solves are judged by.
+pub(in crate::integrate) struct StepImage<'a> {
+    /// The weights of the stages in the displacement (`h² b̄_j`) and in the velocity (`h b_j`).
+    pub(in crate::integrate) displacement: &'a [f64],
+    pub(in crate::integrate) velocity: &'a [f64],
+    /// The state every column starts the step from.
+    pub(in crate::integrate) start: &'a [f64],
+}
+
+impl StepImage<'_> {
+    /// How far `correction` (of the stage solution `dw`) moves the end state, relative to its
+    /// size: the largest displacement change over the largest displacement, and the same of
+    /// the velocities, in any column (each part's size at least its increment's, so that a
+    /// column starting from rest is judged by what the step adds).
+    fn relative_change(&self, dw: &[f64], correction: &[f64], cols: usize) -> f64 {
+        let s = self.velocity.len();
+        let m = dw.len() / cols.max(1);
+        let (n, n2) = (m / s, self.start.len() / cols.max(1));
+        let mut worst = 0.0f64;
+        for col in 0..cols {
+            let (dw, correction) = (
+                &dw[col * m..(col + 1) * m],
+                &correction[col * m..(col + 1) * m],
+            );
+            let start = &self.start[col * n2..(col + 1) * n2];
+            for (part, weights) in [(0, self.displacement), (1, self.velocity)] {
+                let (mut size, mut change) = (0.0f64, 0.0f64);
+                for r in 0..n {
+                    let combine =
+                        |w: &[f64]| -> f64 { (0..s).map(|j| weights[j] * w[j * n + r]).sum() };
+                    size = size.max(start[part * n + r].abs()).max(combine(dw).abs());
+                    change = change.max(combine(correction).abs());
+                }
+                if change > 0.0 {
+                    worst = worst.max(change / size.max(f64::MIN_POSITIVE));
+                }
+            }
+        }
+        worst
     }
 }
 

@@ -38,7 +38,7 @@ use std::sync::Arc;
 use super::{Drive, ForcedFlow, ForcedIntegrator, RecordedFlow, check_forced_request, phase_field};
 use crate::integrate::collocation::{
     Collocation, CollocationLinearization, LinearStages, RecordedStep, SPLIT_DOFS, SparseStages,
-    SplitStages, StageLu, StageMethod, StageTangents, VariationalBuffers, low_pass,
+    SplitStages, StageLu, StageMethod, StageTangents, StepImage, VariationalBuffers, low_pass,
     variational_step,
 };
 use crate::integrate::{IntegrationError, IntegrationStats, LinearizedFlow, Tolerances};
@@ -55,13 +55,11 @@ const STAGE_TOLERANCE: f64 = 1e-13;
 const FRESH_FLOOR: f64 = 1e-4;
 const STALE_FLOOR: f64 = 1e-7;
 /// The accuracy a recorded step's split stage solve (eq. (32f)) takes the parameter columns
-/// `∂z/∂Ω`, `∂z/∂a` to, relative to their largest stage acceleration (eq. (97)). Why not to
+/// `∂z/∂Ω`, `∂z/∂a` to, relative to the state the step ends in (eqs. (97), (32g)). Why not to
 /// round-off: the columns only enter the Jacobian's last column, whose error moves a Newton
 /// correction, the tangent and a fold's test function by as much — and a fold's frequency
 /// only by its square (the curve turns there). The corrections' own products are taken to
-/// 1e-4 (eq. (102a)). On the 10⁴-dof von Kármán beam these solves took a fifth of the curve's
-/// time at 6.8 refinement sweeps each. (Whole and low-rank stage factorisations solve exactly
-/// in one pass.)
+/// 1e-4 (eq. (102a)). (Whole and low-rank stage factorisations solve exactly in one pass.)
 const PARAMETER_COLUMN_ACCURACY: f64 = 1e-8;
 /// Steps a period before the first estimate, and the bounds of the estimate.
 const INITIAL_STEPS: usize = 64;
@@ -681,9 +679,16 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             }
         }
         rhs.iter_mut().for_each(|e| *e /= -omega);
+        let displacement: Vec<f64> = self.bta.iter().map(|b| h * h / omega * b).collect();
+        let velocity: Vec<f64> = self.method.b.iter().map(|b| h * b).collect();
+        let image = StepImage {
+            displacement: &displacement,
+            velocity: &velocity,
+            start: phi,
+        };
         lu.as_ref()
             .expect("an exact factorisation at the converged stages")
-            .solve_exact(rhs, COLUMNS, tangents, PARAMETER_COLUMN_ACCURACY);
+            .solve_exact(rhs, COLUMNS, tangents, (PARAMETER_COLUMN_ACCURACY, &image));
         for c in 0..COLUMNS {
             let d_omega = if c == 0 { 1.0 } else { 0.0 };
             let dw = &rhs[c * size..(c + 1) * size];
