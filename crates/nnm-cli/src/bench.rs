@@ -154,6 +154,27 @@ fn beam_resonance_row(case: &str, beam: &Structure) -> Result<Row> {
     )
 }
 
+/// The default von Kármán beam as `nnm export` writes it (Matrix Market `M`, `K` and the
+/// quadratic and cubic terms), read back by the job loader: the imported model's path.
+fn exported_von_karman_beam(built_in: &Structure) -> Result<Structure> {
+    let dir = std::env::temp_dir().join(format!("nnm-bench-export-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir)?;
+    let job = dir.join("von-karman-beam.toml");
+    std::fs::write(
+        &job,
+        format!(
+            "[model]\nfamily = \"von-karman-beam\"\nelements = {}\n",
+            (built_in.dofs() + 3) / 3
+        ),
+    )?;
+    let files = dir.join("files");
+    let exported = nnm_io::export::export_job(&job)?.write(&files)?;
+    let loaded = nnm_io::job::load_job(exported.last().context("the exported job file")?);
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(loaded?.structure)
+}
+
 /// The linear frequency of mode `label`.
 fn mode_frequency(structure: &Structure, label: &str) -> Result<f64> {
     let modes = linear_modes(structure)?;
@@ -392,14 +413,40 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
         rows.extend(pair);
         sizes.push(2);
         let plate = VonKarmanBeam::default().build()?;
+        // The same beam as a user of an FE code has it: M, K and the polynomial terms written
+        // to files by `nnm export` and read back as `nnm run` reads them.
+        let imported = exported_von_karman_beam(&plate)?;
         // Started where the frequency has moved (see examples/von-karman-beam.toml).
-        rows.extend(variant_rows(
-            "von Karman 20 el. (57 dofs) to +8%",
-            &plate,
-            &start_at(&plate, "0", Some(1e-4))?,
-            &[("auto", beam_settings(0.08))],
-        )?);
-        sizes.push(1);
+        let case = "von Karman 20 el. (57 dofs) to +8%";
+        for (label, model) in [("built-in", &plate), ("imported", &imported)] {
+            rows.extend(variant_rows(
+                case,
+                model,
+                &start_at(model, "0", Some(1e-4))?,
+                &[(label, beam_settings(0.08))],
+            )?);
+        }
+        sizes.push(2);
+        // Its first resonance forced at the middle (examples/forced-von-karman-beam.toml).
+        let case = "von Karman 20 el.: forced middle";
+        for (label, model) in [("built-in", &plate), ("imported", &imported)] {
+            rows.push(forced_row(
+                case,
+                label,
+                model,
+                &Damping::Rayleigh([0.0, 1e-5]),
+                &Force::Dofs {
+                    dofs: vec![28],
+                    amplitude: 3.0,
+                },
+                Sweep::Frequency {
+                    from: 315.0,
+                    to: 370.0,
+                    amplitude: 3.0,
+                },
+            )?);
+        }
+        sizes.push(2);
     }
     if large {
         // Large models, matrix-free: the 1,000-element ECL beam (stiff, one nonlinear dof)
