@@ -154,6 +154,28 @@ fn beam_resonance_row(case: &str, beam: &Structure) -> Result<Row> {
     )
 }
 
+/// A von Kármán beam's first resonance forced at its middle node's transverse dof
+/// (examples/forced-von-karman-beam.toml): Rayleigh damping `1e-5 K`, 3 N from 315 to
+/// 370 rad/s, through its two folds.
+fn von_karman_resonance_row(case: &str, label: &'static str, beam: &Structure) -> Result<Row> {
+    let elements = (beam.dofs() + 3) / 3;
+    forced_row(
+        case,
+        label,
+        beam,
+        &Damping::Rayleigh([0.0, 1e-5]),
+        &Force::Dofs {
+            dofs: vec![3 * (elements / 2 - 1) + 1],
+            amplitude: 3.0,
+        },
+        Sweep::Frequency {
+            from: 315.0,
+            to: 370.0,
+            amplitude: 3.0,
+        },
+    )
+}
+
 /// The default von Kármán beam as `nnm export` writes it (Matrix Market `M`, `K` and the
 /// quadratic and cubic terms), read back by the job loader: the imported model's path.
 fn exported_von_karman_beam(built_in: &Structure) -> Result<Structure> {
@@ -427,24 +449,9 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
             )?);
         }
         sizes.push(2);
-        // Its first resonance forced at the middle (examples/forced-von-karman-beam.toml).
         let case = "von Karman 20 el.: forced middle";
         for (label, model) in [("built-in", &plate), ("imported", &imported)] {
-            rows.push(forced_row(
-                case,
-                label,
-                model,
-                &Damping::Rayleigh([0.0, 1e-5]),
-                &Force::Dofs {
-                    dofs: vec![28],
-                    amplitude: 3.0,
-                },
-                Sweep::Frequency {
-                    from: 315.0,
-                    to: 370.0,
-                    amplitude: 3.0,
-                },
-            )?);
+            rows.push(von_karman_resonance_row(case, label, model)?);
         }
         sizes.push(2);
     }
@@ -506,6 +513,19 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
             &[("auto", beam_settings(0.08))],
         )?);
         sizes.push(1);
+        // Its first resonance at 10,005 dofs (3,336 elements: a middle node), built-in and
+        // imported: issue 27's largest case.
+        let plate = VonKarmanBeam {
+            elements: 3336,
+            ..VonKarmanBeam::default()
+        }
+        .build()?;
+        let case = "von Karman 3,336 el.: forced middle";
+        eprintln!("bench: von Karman beam of 3,336 elements, forced (built-in, then imported)");
+        rows.push(von_karman_resonance_row(case, "built-in", &plate)?);
+        let imported = exported_von_karman_beam(&plate)?;
+        rows.push(von_karman_resonance_row(case, "imported", &imported)?);
+        sizes.push(2);
     }
     println!(
         "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>8} {:>9} {:>7}",

@@ -1,5 +1,5 @@
 //! Implicit collocation (Gauss–Legendre, Radau IIA) with exact sensitivities, for stiff models
-//! (docs/method.md eqs. (32a)–(32f): the same internal differentiation as the explicit pairs).
+//! (docs/method.md eqs. (32a)–(32g): the same internal differentiation as the explicit pairs).
 //!
 //! **Why this method.** A finite-element model's highest frequency is thousands of times the
 //! NNM's, and an explicit method's stability then dictates thousands of steps a period although
