@@ -158,7 +158,7 @@ fn beam_resonance_row(case: &str, beam: &Structure) -> Result<Row> {
 /// (examples/forced-von-karman-beam.toml): Rayleigh damping `1e-5 K`, 3 N from 315 to
 /// 370 rad/s, through its two folds.
 fn von_karman_resonance_row(case: &str, label: &'static str, beam: &Structure) -> Result<Row> {
-    let elements = (beam.dofs() + 3) / 3;
+    let elements = von_karman_elements(beam);
     forced_row(
         case,
         label,
@@ -176,6 +176,12 @@ fn von_karman_resonance_row(case: &str, label: &'static str, beam: &Structure) -
     )
 }
 
+/// The elements of a clamped von Kármán beam: `3 (elements − 1)` dofs (`u, w, θ` at each
+/// interior node).
+fn von_karman_elements(beam: &Structure) -> usize {
+    beam.dofs() / 3 + 1
+}
+
 /// The default von Kármán beam as `nnm export` writes it (Matrix Market `M`, `K` and the
 /// quadratic and cubic terms), read back by the job loader: the imported model's path.
 fn exported_von_karman_beam(built_in: &Structure) -> Result<Structure> {
@@ -187,7 +193,7 @@ fn exported_von_karman_beam(built_in: &Structure) -> Result<Structure> {
         &job,
         format!(
             "[model]\nfamily = \"von-karman-beam\"\nelements = {}\n",
-            (built_in.dofs() + 3) / 3
+            von_karman_elements(built_in)
         ),
     )?;
     let files = dir.join("files");

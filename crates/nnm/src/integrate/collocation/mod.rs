@@ -63,7 +63,7 @@ use crate::integrate::{
 };
 use crate::model::{Block, ExplicitForm, MechanicalSystem, SparseMatrix};
 pub(in crate::integrate) use low_rank::LinearStages;
-pub(in crate::integrate) use split::{SplitStages, StepImage};
+pub(in crate::integrate) use split::{Scratch, SplitStages, StepImage};
 pub(in crate::integrate) use stages::{SparseStages, StageLu};
 pub(in crate::integrate) use step_count::low_pass;
 pub(in crate::integrate) use tableaux::StageMethod;

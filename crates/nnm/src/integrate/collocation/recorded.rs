@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use super::split::StepImage;
+use super::split::{Scratch, StepImage};
 use super::stages::StageLu;
 use super::tableaux::Collocation;
 use super::tangents::StageTangents;
@@ -18,6 +18,8 @@ pub(in crate::integrate) struct VariationalBuffers {
     directions: Vec<f64>,
     row: Vec<f64>,
     damped: Vec<f64>,
+    /// A split stage solve's (eq. (32f)).
+    solve: Scratch,
 }
 
 /// One step of the variational equations (eq. (32c)) for `k` directions `phi` (`2n × k`,
@@ -47,6 +49,7 @@ pub(in crate::integrate) fn variational_step(
         directions,
         row,
         damped,
+        solve,
     } = buffers;
     rhs.resize(m * k, 0.0);
     directions.resize(n * k, 0.0);
@@ -85,14 +88,13 @@ pub(in crate::integrate) fn variational_step(
             }
         }
     }
-    let displacement: Vec<f64> = bbar.iter().map(|b| h * h * b).collect();
-    let velocity: Vec<f64> = method.b.iter().map(|b| h * b).collect();
     let image = StepImage {
-        displacement: &displacement,
-        velocity: &velocity,
+        displacement: bbar,
+        velocity: method.b,
+        scales: (h * h, h),
         start: phi,
     };
-    lu.solve_exact(rhs, k, tangents, (accuracy, &image));
+    lu.solve_exact(rhs, k, tangents, (accuracy, &image), solve);
     for col in 0..k {
         let dw = &rhs[col * m..(col + 1) * m];
         let (px, pv) = phi[col * n2..(col + 1) * n2].split_at_mut(n);

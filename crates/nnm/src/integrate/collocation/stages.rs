@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use super::GaussLegendre;
 use super::low_rank::{LOW_RANK_MAX, LinearLu, LinearStages, LowRank, UpdatedStages};
-use super::split::{SplitLu, SplitStages, StageEigen, StepImage};
+use super::split::{Scratch, SplitLu, SplitStages, StageEigen, StepImage};
 use super::tableaux::StageMethod;
 use super::tangents::StageTangents;
 use crate::integrate::IntegrationError;
@@ -319,17 +319,19 @@ impl StageLu {
     }
 
     /// `J⁻¹ B` to round-off (`accuracy` 0) or to `accuracy` relative, `J` built from
-    /// `tangents`, as it moves the state `image` says: what the variational step needs.
+    /// `tangents`, as it moves the state `image` says: what the variational step needs. A
+    /// split solve's buffers come from `scratch`.
     pub(in crate::integrate) fn solve_exact(
         &self,
         b: &mut [f64],
         cols: usize,
         tangents: &StageTangents,
         target: (f64, &StepImage),
+        scratch: &mut Scratch,
     ) {
         match self {
             StageLu::Split(split) => {
-                split.solve_exact(b, cols, tangents, target);
+                split.solve_exact(b, cols, tangents, target, scratch);
             }
             exact => exact.solve_in_place(b, cols),
         }

@@ -37,9 +37,9 @@ use std::sync::Arc;
 
 use super::{Drive, ForcedFlow, ForcedIntegrator, RecordedFlow, check_forced_request, phase_field};
 use crate::integrate::collocation::{
-    Collocation, CollocationLinearization, LinearStages, RecordedStep, SPLIT_DOFS, SparseStages,
-    SplitStages, StageLu, StageMethod, StageTangents, StepImage, VariationalBuffers, low_pass,
-    variational_step,
+    Collocation, CollocationLinearization, LinearStages, RecordedStep, SPLIT_DOFS, Scratch,
+    SparseStages, SplitStages, StageLu, StageMethod, StageTangents, StepImage, VariationalBuffers,
+    low_pass, variational_step,
 };
 use crate::integrate::{IntegrationError, IntegrationStats, LinearizedFlow, Tolerances};
 use crate::linalg::{DenseLu, Mat};
@@ -162,6 +162,8 @@ struct Workspace {
     product: Vec<f64>,
     /// `C δv0` of the parameter columns (`n × 2`).
     damped: Vec<f64>,
+    /// The parameter columns' split stage solves' (eq. (32f)).
+    solve: Scratch,
     /// The relative update at which freshly factorised stage systems of this integration
     /// stalled: their round-off floor (0 until one has).
     floor: f64,
@@ -629,6 +631,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             moved,
             product,
             damped,
+            solve,
             ..
         } = ws;
         let tangents = tangents
@@ -679,16 +682,21 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             }
         }
         rhs.iter_mut().for_each(|e| *e /= -omega);
-        let displacement: Vec<f64> = self.bta.iter().map(|b| h * h / omega * b).collect();
-        let velocity: Vec<f64> = self.method.b.iter().map(|b| h * b).collect();
         let image = StepImage {
-            displacement: &displacement,
-            velocity: &velocity,
+            displacement: &self.bta,
+            velocity: self.method.b,
+            scales: (h * h / omega, h),
             start: phi,
         };
         lu.as_ref()
             .expect("an exact factorisation at the converged stages")
-            .solve_exact(rhs, COLUMNS, tangents, (PARAMETER_COLUMN_ACCURACY, &image));
+            .solve_exact(
+                rhs,
+                COLUMNS,
+                tangents,
+                (PARAMETER_COLUMN_ACCURACY, &image),
+                solve,
+            );
         for c in 0..COLUMNS {
             let d_omega = if c == 0 { 1.0 } else { 0.0 };
             let dw = &rhs[c * size..(c + 1) * size];
