@@ -62,10 +62,12 @@ fn forced_duffing_folds_where_harmonic_balance_puts_them() {
         .filter(|f| f[curve] == "1")
         .map(|f| (f[omega].parse().unwrap(), f[stable] == "true"))
         .collect();
-    let top = points
-        .iter()
-        .position(|p| p.0 > upper - 1e-3)
-        .expect("the curve reaches the upper fold");
+    // Where it turns back down in Ω: the upper fold, between two points (the fold itself is
+    // located above; the points only have to come near it).
+    let top = (0..points.len() - 1)
+        .find(|&k| points[k + 1].0 < points[k].0)
+        .expect("the curve turns back at the upper fold");
+    assert!(points[top].0 > upper - 2e-2, "{points:?}");
     // Where it turns back up in Ω: the lower fold, between two points.
     let bottom = top
         + (0..points.len() - top)

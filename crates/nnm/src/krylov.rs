@@ -137,6 +137,13 @@ impl Arnoldi {
         h
     }
 
+    /// The columns of `H`: column `j` holds `⟨vᵢ, A v_j⟩` for the basis vectors there were at
+    /// step `j`, then the norm of the direction added (0 when none was): `A v_j` is their
+    /// combination of the basis vectors.
+    pub fn columns(&self) -> &[Vec<f64>] {
+        &self.columns
+    }
+
     /// Steps taken (columns of `H`).
     pub fn steps(&self) -> usize {
         self.columns.len()

@@ -427,14 +427,14 @@ fn half_period_shooting_equals_whole_period_shooting() {
 /// through its two folds: the same folds, the same stability verdict at every point of the
 /// matrix-free curve, and the same leading multipliers at the end of the sweep — by Radau
 /// IIA of order 5 and of order 9 (the default). Each curve sets its own step count from its
-/// own path, and at order 9 the two end on 16 and 18 steps a period: the critical pair is
-/// then the same to 1e-7, the next (|μ| = 0.87, the second bending mode)
-/// only to its discretisation error at `ω₂ h ≈ 2`, 1e-5; at order 5 both end on the same steps and both
-/// pairs agree to 1e-7.
+/// own path: the critical pair is the same to 1e-7 whatever the steps; the next (|μ| = 0.87,
+/// the second bending mode) is the same to 1e-7 when both curves end on the same steps a
+/// period, and otherwise only to its discretisation error at `ω₂ h ≈ 2`, 1e-4 (at order 9,
+/// 16 against 18 steps differed by 1e-5; at order 5, 35 against 39 steps by 2.3e-5).
 #[test]
 fn matrix_free_shooting_equals_dense_shooting() {
     for (method, second_pair) in [
-        (IntegrationMethod::Radau5, 1e-7),
+        (IntegrationMethod::Radau5, 1e-4),
         (IntegrationMethod::Radau9, 1e-4),
     ] {
         matrix_free_equals_dense(method, second_pair);
@@ -481,11 +481,18 @@ fn matrix_free_equals_dense(method: IntegrationMethod, second_pair: f64) {
     assert!((p.frequency - q.frequency).abs() < 1e-9 * q.frequency);
     assert_eq!(p.stable, q.stable);
     assert!(p.multipliers.len() >= 4, "{:?}", p.multipliers);
+    let same_steps = p.integration_steps == q.integration_steps;
     for (k, (m, n)) in p.multipliers.iter().zip(&q.multipliers).take(4).enumerate() {
-        let bound = if k < 2 { 1e-7 } else { second_pair };
+        let bound = if k < 2 || same_steps {
+            1e-7
+        } else {
+            second_pair
+        };
         assert!(
             (m.0 - n.0).hypot(m.1.abs() - n.1.abs()) < bound,
-            "{method:?}: {:?} vs {:?}",
+            "{method:?} ({} against {} steps): {:?} vs {:?}",
+            p.integration_steps,
+            q.integration_steps,
             &p.multipliers[..4],
             &q.multipliers[..4]
         );

@@ -3,7 +3,7 @@
 use std::collections::VecDeque;
 
 use super::corrector::{Corrected, correct};
-use super::predictor::{predict, tangent};
+use super::predictor::{predict, predict_curved, tangent};
 use super::step::StepControl;
 use super::{
     BoxError, ContinuationError, ContinuationProblem, ContinuationSettings, ContinuationStats,
@@ -43,6 +43,9 @@ pub struct Continuation<'p, P: ContinuationProblem, D: EventDetector<P>> {
     cap: Option<f64>,
     /// The last accepted solution and its point.
     current: Option<(Solution, P::Point)>,
+    /// The tangent of the solution accepted before `current` (for the curvature of the
+    /// second-order predictor, eq. (21a)).
+    previous_tangent: Option<Vec<f64>>,
     queue: VecDeque<Item<P::Point, D::Event>>,
     state: State,
     stats: ContinuationStats,
@@ -125,6 +128,7 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             control: None,
             cap: None,
             current: None,
+            previous_tangent: None,
             queue: VecDeque::new(),
             state: State::NotStarted { u0, pin },
             stats: ContinuationStats::default(),
@@ -190,7 +194,8 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
     fn accept(&mut self, solution: Solution, point: P::Point) {
         self.problem.accept(&point);
         self.stats.points += 1;
-        self.current = Some((solution, point));
+        let replaced = self.current.replace((solution, point));
+        self.previous_tangent = replaced.map(|(s, _)| s.tangent);
     }
 
     /// One step along the branch: retried at smaller steps until a point is accepted, or an
@@ -206,6 +211,11 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
         let settings = self.settings.clone();
         let (previous, _) = self.current.as_ref().expect("started");
         let (u, t) = (previous.u.clone(), previous.tangent.clone());
+        let bend = self
+            .previous_tangent
+            .clone()
+            .filter(|_| self.problem.second_order_predictor())
+            .map(|t0| (t0, previous.step));
         let index = previous.index + 1;
         let cap = self.cap.take();
         loop {
@@ -215,12 +225,16 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             // A cap shortens the step, not below the minimum (a failure there still ends the
             // branch), and the step control keeps its own step for the steps after.
             let step = cap.map_or(step, |cap| step.min(cap.max(control.minimum(q))));
-            let predicted = predict(&u, &t, step);
+            // The corrector starts from the curved prediction, on the hyperplane through the
+            // straight one (eq. (22)): the step's arclength is measured as before.
+            let anchor = predict(&u, &t, step);
+            let predicted =
+                predict_curved(&u, &t, bend.as_ref().map(|(t0, l)| (&t0[..], *l)), step);
             let outcome = correct(
                 self.problem,
                 &predicted,
                 &t,
-                &predicted,
+                &anchor,
                 settings.tolerance,
                 settings.max_iterations,
                 &mut self.stats.newton_iterations,

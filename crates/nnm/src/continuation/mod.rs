@@ -96,6 +96,15 @@ pub trait ContinuationProblem {
     fn amplitude(&self, u: &[f64]) -> f64 {
         crate::linalg::norm(&u[..u.len() - 1])
     }
+
+    /// Whether steps start from the second-order predictor (eq. (21a)) instead of the Euler
+    /// one. Default false: on free families it moved the 2-DOF branch point's location by more
+    /// than 1e-6 between two steps and lost the period-doubling switch of the bifurcation
+    /// tests (crates/nnm/tests/bifurcations.rs), where branches cross and the curvature of
+    /// the last two tangents says nothing of the next stretch.
+    fn second_order_predictor(&self) -> bool {
+        false
+    }
 }
 
 /// A converged solution on the branch.

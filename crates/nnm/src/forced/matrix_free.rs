@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::integrate::LinearizedFlow;
 use crate::krylov::{Arnoldi, gmres};
-use crate::linalg::{self, Complex};
+use crate::linalg::{self, Complex, DenseLu, Mat};
 
 /// Relative residual each GMRES solve is taken to: well below the continuation's tolerance,
 /// so that the corrector converges as with the exact Jacobian.
@@ -59,6 +59,115 @@ pub struct ForcedOperator {
     enough: f64,
     /// Products made, counted for the curve's statistics.
     products: Arc<AtomicUsize>,
+    /// The shot map's Krylov space at a recent point, which preconditions the solves.
+    subspace: Option<Arc<Subspace>>,
+}
+
+/// The shot map's dominant Krylov space at a point: `V` (orthonormal, `k` vectors) and its
+/// image `U = A V`, from the Arnoldi process of that point's Floquet analysis. The shot map
+/// of the next points is close to `U Vᵀ`: a damped model's other directions decay over the
+/// period (module notes), and the point has moved little. So `[U Vᵀ − I, c; bᵀ, 0]`, solved
+/// in the `k + 1` coordinates, preconditions the next bordered solves (eq. (102b)).
+pub(super) struct Subspace {
+    basis: Vec<Vec<f64>>,
+    images: Vec<Vec<f64>>,
+}
+
+impl Subspace {
+    /// The space of the first `k` Arnoldi vectors (`k` the steps taken): `U = V_(k+1) H̄`.
+    fn of(arnoldi: &Arnoldi) -> Option<Self> {
+        let k = arnoldi.steps();
+        let (basis, columns) = (&arnoldi.basis, arnoldi.columns());
+        if k == 0 {
+            return None;
+        }
+        let n = basis[0].len();
+        let images = columns
+            .iter()
+            .map(|h| {
+                let mut u = vec![0.0; n];
+                for (v, &c) in basis.iter().zip(h) {
+                    u.iter_mut().zip(v).for_each(|(u, v)| *u += c * v);
+                }
+                u
+            })
+            .collect();
+        Some(Self {
+            basis: basis[..k].to_vec(),
+            images,
+        })
+    }
+
+    /// The preconditioner of the bordered solve with parameter column `c` and border `b`:
+    /// `None` when its small system is singular.
+    fn bordered<'a>(&'a self, c: &'a [f64], b: &'a [f64]) -> Option<Preconditioner<'a>> {
+        let k = self.basis.len();
+        let n2 = c.len();
+        let (vc, bu): (Vec<f64>, Vec<f64>) = (
+            self.basis.iter().map(|v| linalg::dot(v, c)).collect(),
+            self.images
+                .iter()
+                .map(|u| linalg::dot(&b[..n2], u))
+                .collect(),
+        );
+        let bc = linalg::dot(&b[..n2], c);
+        // [[I − VᵀU, −Vᵀc], [bᵀU, bᵀc]] (the border's own last entry multiplies η too).
+        let small = Mat::from_fn(k + 1, k + 1, |i, j| match (i < k, j < k) {
+            (true, true) => {
+                let identity = if i == j { 1.0 } else { 0.0 };
+                identity - linalg::dot(&self.basis[i], &self.images[j])
+            }
+            (true, false) => -vc[i],
+            (false, true) => bu[j],
+            (false, false) => bc + b[n2],
+        });
+        let lu = DenseLu::new(small.as_ref());
+        // A singular system leaves non-finite solutions: tried on a unit vector.
+        let mut probe = vec![1.0; k + 1];
+        lu.solve_in_place(&mut probe, 1);
+        probe
+            .iter()
+            .all(|x| x.is_finite())
+            .then_some(Preconditioner {
+                subspace: self,
+                c,
+                b,
+                lu,
+            })
+    }
+}
+
+/// `[U Vᵀ − I, c; bᵀ, b_p]⁻¹` by elimination in the subspace's coordinates (eq. (102b)).
+struct Preconditioner<'a> {
+    subspace: &'a Subspace,
+    c: &'a [f64],
+    b: &'a [f64],
+    lu: DenseLu,
+}
+
+impl Preconditioner<'_> {
+    /// `[y; η]` with `−y + U Vᵀ y + c η = r`, `bᵀ [y; η] = ρ`: `y = U α + c η − r` where
+    /// `α = Vᵀ y` solves the small system.
+    fn apply(&self, w: &[f64]) -> Vec<f64> {
+        let n2 = self.c.len();
+        let k = self.subspace.basis.len();
+        let r = &w[..n2];
+        let mut small: Vec<f64> = self
+            .subspace
+            .basis
+            .iter()
+            .map(|v| -linalg::dot(v, r))
+            .collect();
+        small.push(w[n2] + linalg::dot(&self.b[..n2], r));
+        self.lu.solve_in_place(&mut small, 1);
+        let eta = small[k];
+        let mut y: Vec<f64> = self.c.iter().zip(r).map(|(c, r)| c * eta - r).collect();
+        for (u, &a) in self.subspace.images.iter().zip(&small) {
+            y.iter_mut().zip(u).for_each(|(y, u)| *y += a * u);
+        }
+        y.push(eta);
+        y
+    }
 }
 
 impl std::fmt::Debug for ForcedOperator {
@@ -83,6 +192,7 @@ impl ForcedOperator {
         tolerance: f64,
         size: f64,
         products: Arc<AtomicUsize>,
+        subspace: Option<Arc<Subspace>>,
     ) -> Self {
         Self {
             flow,
@@ -91,6 +201,7 @@ impl ForcedOperator {
             parameter_column,
             enough: NEWTON_FORCING * tolerance * size,
             products,
+            subspace,
         }
     }
 
@@ -122,7 +233,20 @@ impl ForcedOperator {
         let mut b = Vec::with_capacity(n2 + 1);
         b.extend_from_slice(rhs);
         b.push(border_rhs);
-        gmres(apply, &b, (GMRES_TOLERANCE, self.enough), MAX_GMRES, None).x
+        let tolerances = (GMRES_TOLERANCE, self.enough);
+        // Right-preconditioned by a recent point's Krylov space (eq. (102b)): the residual
+        // GMRES minimises is the unpreconditioned one.
+        let preconditioner = self
+            .subspace
+            .as_deref()
+            .and_then(|s| s.bordered(&self.parameter_column, border));
+        match preconditioner {
+            Some(p) => {
+                let preconditioned = |w: &[f64], out: &mut [f64]| apply(&p.apply(w), out);
+                p.apply(&gmres(preconditioned, &b, tolerances, MAX_GMRES, None).x)
+            }
+            None => gmres(apply, &b, tolerances, MAX_GMRES, None).x,
+        }
     }
 
     /// The eigenvalues of modulus at least `floor` of the shot map `P Φ(span)` (over half a
@@ -132,10 +256,11 @@ impl ForcedOperator {
     /// multipliers between 1e-10 and the floor (the 200-element von Kármán beam: ~30), which
     /// cannot take part in a crossing of the unit circle but cost a product each. Why a fixed
     /// mixture of every coordinate as the start: it reaches every mode.
+    /// With them, the Krylov space the process built ([`Subspace`]).
     pub(super) fn shot_map_eigenvalues(
         &self,
         floor: f64,
-    ) -> Result<Vec<Complex>, linalg::LinalgError> {
+    ) -> Result<(Vec<Complex>, Option<Subspace>), linalg::LinalgError> {
         let n2 = self.scales.len();
         let mixture: Vec<f64> = (0..n2)
             .map(|i| ((i as f64) * 0.618_033_988_75 + 0.5).sin())
@@ -160,12 +285,13 @@ impl ForcedOperator {
                         (values.len(), 1)
                     };
                     if settled.1 >= SETTLED_STEPS {
-                        return Ok(values);
+                        return Ok((values, Subspace::of(&arnoldi)));
                     }
                 }
                 _ => settled = (0, 0),
             }
         }
-        linalg::eigenvalues(arnoldi.hessenberg().as_ref())
+        let values = linalg::eigenvalues(arnoldi.hessenberg().as_ref())?;
+        Ok((values, Subspace::of(&arnoldi)))
     }
 }

@@ -16,7 +16,7 @@
 
 use std::sync::Arc;
 
-use super::matrix_free::ForcedOperator;
+use super::matrix_free::{ForcedOperator, Subspace};
 use crate::continuation::{ContinuationProblem, Detail, Linearization, Solution};
 use crate::integrate::IntegrationError;
 use crate::integrate::LinearizedFlow;
@@ -244,6 +244,9 @@ pub struct ForcedShooting<'s, 'a, S: MechanicalSystem + ?Sized> {
     /// The last iterate's relative residual (`None` before the first): a chord step that
     /// does not cut it fourfold gets an exact evaluation.
     chord_residual: Option<f64>,
+    /// The shot map's Krylov space from the last Floquet analysis, which preconditions the
+    /// matrix-free solves after it (eq. (102b)).
+    subspace: Option<Arc<Subspace>>,
     /// Work counters so far.
     pub stats: ForcedStats,
 }
@@ -280,6 +283,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             products: Arc::default(),
             chord: None,
             chord_residual: None,
+            subspace: None,
             stats: ForcedStats::default(),
         }
     }
@@ -404,7 +408,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
     /// Prepares the integrator for the motion from `z0` at parameter `p` (the step count of
     /// an equal-step method, between points).
     pub fn adapt(&mut self, z0: &[f64], p: f64) -> Result<(), ForcedError> {
-        self.integrator.adapt(z0, self.sweep.drive(p))?;
+        let span = self.span();
+        self.integrator.adapt(z0, self.sweep.drive(p), span)?;
         Ok(())
     }
 
@@ -600,6 +605,7 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
             self.tolerance,
             size,
             self.products.clone(),
+            self.subspace.clone(),
         ));
         self.chord = Some((Mat::zeros(0, 0), Some(operator.clone())));
         self.chord_residual = Some(relative_residual);
@@ -685,7 +691,9 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
                 } else {
                     MULTIPLIER_FLOOR
                 };
-                operator.shot_map_eigenvalues(floor)?
+                let (multipliers, subspace) = operator.shot_map_eigenvalues(floor)?;
+                self.subspace = subspace.map(Arc::new);
+                multipliers
             }
             None => linalg::eigenvalues(evaluation.monodromy.as_ref())?,
         };
@@ -732,5 +740,12 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for ForcedShooting<'_, '_
     /// Steps are absolute in the scaled unknowns (module notes).
     fn amplitude(&self, _u: &[f64]) -> f64 {
         1.0
+    }
+
+    /// A forced curve is smooth between its folds, and the second-order predictor lets its
+    /// steps grow: the ECL beam's resonance curve took 52 points instead of 82, 0.38 against
+    /// 0.60 s (docs/performance.md).
+    fn second_order_predictor(&self) -> bool {
+        true
     }
 }

@@ -19,8 +19,9 @@
 //! δΩ (x1 − x0)/Ω`.
 //!
 //! The steps are equal, `N` a period, set by [`ForcedIntegrator::adapt`] from the difference
-//! of the flows with `N` and `N/2` steps (global error `≈ ‖z_N − z_{N/2}‖/(2^p − 1)`, `p` the
-//! end-point order), between points and never within a Newton solve. The estimate is made on the
+//! of the flows over the shot span with `N` and `N/2` steps a period (global error
+//! `≈ ‖z_N − z_{N/2}‖/(2^p − 1)`, `p` the end-point order), between points and never within a
+//! Newton solve. The estimate is made on the
 //! motion's slow part, as for free motions (eq. (32d)): the difference is filtered by
 //! `(M + K₀/ω_c²)⁻¹M`, `ω_c` sixteen times the forcing frequency, since the quasi-static
 //! response of the stiff modes converges at Radau IIA's stage order only, and its error is
@@ -108,6 +109,12 @@ pub struct ForcedCollocation<'s, 'a, S: MechanicalSystem + ?Sized> {
     /// Where the step count was last estimated (frequency, RMS size of the state) and how
     /// many points it has served since.
     estimate: Option<(f64, f64, usize)>,
+    /// The last integration with sensitivities from phase 0: its start, drive, span, step
+    /// count and end state. [`ForcedIntegrator::adapt`], called at the point just converged,
+    /// takes its fine flow from here instead of integrating it again (the same discrete map:
+    /// the stage iteration converges to the same stages, to its tolerance, whatever it
+    /// carries besides).
+    last_flow: Option<LastFlow>,
     /// `M`'s entries.
     mass: SparseMatrix,
     /// The stage system's structure.
@@ -120,6 +127,15 @@ pub struct ForcedCollocation<'s, 'a, S: MechanicalSystem + ?Sized> {
     /// (row-major `s × s`): the last step's stage values extrapolated.
     extrapolation: Vec<f64>,
     ws: Workspace,
+}
+
+/// See [`ForcedCollocation::last_flow`].
+struct LastFlow {
+    z0: Vec<f64>,
+    drive: Drive,
+    span: f64,
+    steps: usize,
+    z: Vec<f64>,
 }
 
 /// How the stage system is assembled and factorised.
@@ -224,6 +240,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
             steps: INITIAL_STEPS,
             least_steps: MIN_STEPS,
             estimate: None,
+            last_flow: None,
             mass,
             stages,
             coefficients,
@@ -472,15 +489,27 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         sensitivities: Sensitivities,
     ) -> Result<(ForcedFlow, Option<Vec<RecordedStep>>), IntegrationError> {
         let period = 2.0 * std::f64::consts::PI;
-        for retry in 0.. {
-            let steps = span / period * self.steps as f64;
+        self.with_stage_retries(|this| {
+            let steps = span / period * this.steps as f64;
             let steps = (if round_up {
                 steps.ceil()
             } else {
                 steps.round()
             } as usize)
                 .max(1);
-            match self.integrate(z0, tau0, span, steps, drive, sensitivities) {
+            this.integrate(z0, tau0, span, steps, drive, sensitivities, None)
+        })
+    }
+
+    /// `attempt` on the steps a period [`Self::steps`] holds, retried on half again as many
+    /// (kept as the least for the rest of the curve) while a step's stage equations do not
+    /// converge ([`Self::integrate_on_period_steps`] says why).
+    fn with_stage_retries<T>(
+        &mut self,
+        mut attempt: impl FnMut(&mut Self) -> Result<T, IntegrationError>,
+    ) -> Result<T, IntegrationError> {
+        for retry in 0.. {
+            match attempt(self) {
                 Err(IntegrationError::StagesDiverged { .. })
                     if retry < STAGE_RETRIES && self.steps < MAX_STEPS =>
                 {
@@ -494,7 +523,8 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
     }
 
     /// `steps` equal steps from `z0` at phase `tau0` over `span`, with the sensitivities
-    /// `sensitivities` asks for.
+    /// `sensitivities` asks for; with `kept = (every, states)`, the state before every
+    /// `every`-th step pushed onto `states` (the start first).
     #[allow(clippy::too_many_arguments)]
     fn integrate(
         &mut self,
@@ -504,6 +534,7 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         steps: usize,
         drive: Drive,
         sensitivities: Sensitivities,
+        mut kept: Option<(usize, &mut Vec<Vec<f64>>)>,
     ) -> Result<(ForcedFlow, Option<Vec<RecordedStep>>), IntegrationError> {
         let n = self.system.dofs();
         let n2 = 2 * n;
@@ -541,6 +572,11 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         // The next state: every entry written each step, the buffer swapped with `z`.
         let mut z1 = vec![0.0; n2];
         for step in 0..steps {
+            if let Some((every, states)) = &mut kept
+                && step % *every == 0
+            {
+                states.push(z.clone());
+            }
             let tau = tau0 + step as f64 * h;
             let exact = parameters > 0;
             if let Err(e) = self.stages(&z, tau, h, drive, exact, &mut ws, &mut stats) {
@@ -592,6 +628,15 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedCollocation<'s, 'a, S> {
         ws.lu = None;
         self.ws = ws;
         result?;
+        if tau0 == 0.0 && sensitivities != Sensitivities::None {
+            self.last_flow = Some(LastFlow {
+                z0: z0.to_vec(),
+                drive,
+                span,
+                steps,
+                z: z.clone(),
+            });
+        }
         let flow = ForcedFlow {
             z,
             sensitivity: phi,
@@ -794,10 +839,42 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
         Ok(flow.z)
     }
 
-    /// Sets the steps a period so that the estimated global error of `z(2π)` is within the
-    /// tolerances (module notes): at most four estimates, each from `N` and `N/2` steps.
-    /// An estimate is reused for the points near the one it was made at (see [`REUSE`]).
-    fn adapt(&mut self, z0: &[f64], drive: Drive) -> Result<(), IntegrationError> {
+    /// In one integration on the period's equal steps, as many to a piece as
+    /// [`ForcedIntegrator::advance`] takes: the same discrete motion as piece by piece, but the
+    /// stage iteration carries its first iterate and its factorisation from piece to piece
+    /// instead of starting each afresh from the field (on the ECL beam's curve, where a piece
+    /// is one step, the samples cost half as much).
+    fn sample_states(
+        &mut self,
+        z0: &[f64],
+        drive: Drive,
+        count: usize,
+        pieces: usize,
+    ) -> Result<Vec<Vec<f64>>, IntegrationError> {
+        let piece = 2.0 * std::f64::consts::PI / count as f64;
+        self.with_stage_retries(|this| {
+            let every = this.steps.div_ceil(count).max(1);
+            let mut states = Vec::with_capacity(pieces);
+            let span = piece * pieces as f64;
+            let none = Sensitivities::None;
+            let kept = Some((every, &mut states));
+            this.integrate(z0, 0.0, span, every * pieces, drive, none, kept)?;
+            Ok(states)
+        })
+    }
+
+    /// Sets the steps a period so that the estimated global error of `z(span)` is within the
+    /// tolerances (module notes): at most four estimates, each from `N` and `N/2` steps over
+    /// the span (`N` the steps a period scaled to it, as the shooting integrates). The fine
+    /// flow of the first estimate is the converged point's own when it was the last
+    /// integrated ([`Self::last_flow`]). An estimate is reused for the points near the one it
+    /// was made at (see [`REUSE`]).
+    ///
+    /// Why over the span and from the point's flow: half-period shooting (eq. (99b)) needs
+    /// its half period accurate, and the estimates over whole periods, both flows integrated,
+    /// cost as much as the shooting's own integrations (the ECL beam's curve: 44 estimates, 66
+    /// whole periods beside 221 half ones).
+    fn adapt(&mut self, z0: &[f64], drive: Drive, span: f64) -> Result<(), IntegrationError> {
         let size = (z0.iter().map(|v| v * v).sum::<f64>() / z0.len().max(1) as f64).sqrt();
         if let Some((frequency, estimated_size, served)) = &mut self.estimate {
             let near = (drive.frequency / *frequency - 1.0).abs() <= REUSE_FREQUENCY
@@ -816,18 +893,35 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
             &self.mass,
             CUTOFF_HARMONICS * drive.frequency,
         )?;
+        let last = self.last_flow.take();
         for _ in 0..4 {
             let steps = self.steps.max(2 * MIN_STEPS);
+            // The counts the shooting integrates the span on (eq. (99b)), and half as many.
+            let fine_steps = ((span / period * steps as f64).round() as usize).max(2);
+            let coarse_steps = fine_steps / 2;
             let none = Sensitivities::None;
-            let pair = self
-                .integrate(z0, 0.0, period, steps, drive, none)
-                .and_then(|fine| {
-                    Ok((
-                        fine,
-                        self.integrate(z0, 0.0, period, steps / 2, drive, none)?,
-                    ))
-                });
-            let ((fine, _), (coarse, _)) = match pair {
+            let fine = match &last {
+                Some(l)
+                    if l.z0 == z0
+                        && l.drive == drive
+                        && l.span == span
+                        && l.steps == fine_steps =>
+                {
+                    Ok(l.z.clone())
+                }
+                _ => self
+                    .integrate(z0, 0.0, span, fine_steps, drive, none, None)
+                    .map(|(flow, _)| flow.z),
+            };
+            let pair = fine.and_then(|fine| {
+                Ok((
+                    fine,
+                    self.integrate(z0, 0.0, span, coarse_steps, drive, none, None)?
+                        .0
+                        .z,
+                ))
+            });
+            let (fine, coarse) = match pair {
                 // Steps too long for the stage iteration are too long for the estimate too.
                 Err(IntegrationError::StagesDiverged { .. }) if steps < MAX_STEPS => {
                     self.steps = half_again(steps);
@@ -835,8 +929,8 @@ impl<S: MechanicalSystem + ?Sized> ForcedIntegrator for ForcedCollocation<'_, '_
                 }
                 pair => pair?,
             };
-            let error =
-                self.slow_difference(&fine.z, &coarse.z, &filter) / (2f64.powi(order) - 1.0);
+            let ratio = fine_steps as f64 / coarse_steps as f64;
+            let error = self.slow_difference(&fine, &coarse, &filter) / (ratio.powi(order) - 1.0);
             // Aim at a third of the tolerance, so that the next points, a little further
             // along the curve, still meet it.
             let wanted = (steps as f64 * (3.0 * error).powf(1.0 / order as f64)).ceil() as usize;

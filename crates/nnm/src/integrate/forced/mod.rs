@@ -84,6 +84,25 @@ pub trait ForcedIntegrator {
         None
     }
 
+    /// The states at `τ_k = 2πk/count`, `k = 0..pieces`, from `z(0) = z0` at `drive` (the
+    /// samples of [`sample`]): by default piece by piece with [`Self::advance`].
+    fn sample_states(
+        &mut self,
+        z0: &[f64],
+        drive: Drive,
+        count: usize,
+        pieces: usize,
+    ) -> Result<Vec<Vec<f64>>, IntegrationError> {
+        let span = 2.0 * std::f64::consts::PI / count as f64;
+        let mut z = z0.to_vec();
+        let mut out = Vec::with_capacity(count);
+        for k in 0..pieces {
+            let next = self.advance(&z, k as f64 * span, span, drive)?;
+            out.push(std::mem::replace(&mut z, next));
+        }
+        Ok(out)
+    }
+
     /// `z(tau0 + span)` from `z(tau0) = z0` at `drive`, without sensitivities (samples of a
     /// converged motion, and the instants of its peaks).
     fn advance(
@@ -94,11 +113,12 @@ pub trait ForcedIntegrator {
         drive: Drive,
     ) -> Result<Vec<f64>, IntegrationError>;
 
-    /// Prepares the integration of the motion from `z0` at `drive` to a global accuracy of
-    /// `tolerance` relative to the state: a method with equal steps sets their number here
-    /// (adaptive methods have nothing to do). Called before the first point and after each
-    /// accepted one, never within a Newton solve (the discrete map must not change there).
-    fn adapt(&mut self, _z0: &[f64], _drive: Drive) -> Result<(), IntegrationError> {
+    /// Prepares the integration of the motion from `z0` at `drive` over `span` (the shot
+    /// horizon) to a global accuracy of `tolerance` relative to the state: a method with
+    /// equal steps sets their number here (adaptive methods have nothing to do). Called before
+    /// the first point and after each accepted one, never within a Newton solve (the discrete
+    /// map must not change there).
+    fn adapt(&mut self, _z0: &[f64], _drive: Drive, _span: f64) -> Result<(), IntegrationError> {
         Ok(())
     }
 
@@ -170,13 +190,9 @@ fn sample_pieces(
     count: usize,
     pieces: usize,
 ) -> Result<Vec<Vec<f64>>, IntegrationError> {
-    let span = 2.0 * std::f64::consts::PI / count as f64;
-    let mut z = z0.to_vec();
-    let mut out = Vec::with_capacity(count);
-    for k in 0..pieces {
-        let next = integrator.advance(&z, k as f64 * span, span, drive)?;
-        out.push(std::mem::replace(&mut z, next));
-    }
+    let mut out = integrator.sample_states(z0, drive, count, pieces)?;
+    // The mirrored half of [`sample_half_wave`] follows these.
+    out.reserve(count - pieces);
     Ok(out)
 }
 
