@@ -27,11 +27,6 @@ const GMRES_TOLERANCE: f64 = 1e-11;
 /// A linear residual below this fraction of the continuation's tolerance (times the
 /// unknowns' norm) is small enough whatever the right-hand side (inexact Newton, eq. (74a)).
 const NEWTON_FORCING: f64 = 1e-3;
-/// A Newton correction's GMRES stops once its residual is below this fraction of the
-/// residual it corrects times that residual's own relative size (eq. (102c)): the linear
-/// error then adds a tenth of what Newton's quadratic term leaves, and the first correction
-/// from a prediction at 1e-3 stops at 1e-4 instead of 1e-8.
-const QUADRATIC_FORCING: f64 = 0.1;
 /// The accuracy GMRES's products take each step's split stage solve to, relative to the state
 /// the step ends in (docs/method.md eq. (32g)): the products then come out within about that
 /// of exact ones, and an inexact Newton correction contracts by about that. Why not to
@@ -62,8 +57,6 @@ pub struct ForcedOperator {
     parameter_column: Vec<f64>,
     /// A linear residual small enough whatever `‖b‖` (eq. (74a)).
     enough: f64,
-    /// The unknowns' norm at the evaluation.
-    size: f64,
     /// Products made, counted for the curve's statistics.
     products: Arc<AtomicUsize>,
     /// The shot map's Krylov space at a recent point, which preconditions the solves.
@@ -207,7 +200,6 @@ impl ForcedOperator {
             scales,
             parameter_column,
             enough: NEWTON_FORCING * tolerance * size,
-            size,
             products,
             subspace,
         }
@@ -241,10 +233,7 @@ impl ForcedOperator {
         let mut b = Vec::with_capacity(n2 + 1);
         b.extend_from_slice(rhs);
         b.push(border_rhs);
-        // A correction (`rhs` the residual) to its quadratic forcing, a tangent (`rhs` zero)
-        // to the full tolerance.
-        let forcing = QUADRATIC_FORCING * linalg::norm(rhs) / self.size.max(f64::MIN_POSITIVE);
-        let tolerances = (forcing.max(GMRES_TOLERANCE), self.enough);
+        let tolerances = (GMRES_TOLERANCE, self.enough);
         // Right-preconditioned by a recent point's Krylov space (eq. (102b)): the residual
         // GMRES minimises is the unpreconditioned one.
         let preconditioner = self
