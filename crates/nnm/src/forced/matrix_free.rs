@@ -192,7 +192,6 @@ impl ForcedOperator {
         tolerance: f64,
         size: f64,
         products: Arc<AtomicUsize>,
-        subspace: Option<Arc<Subspace>>,
     ) -> Self {
         Self {
             flow,
@@ -201,8 +200,15 @@ impl ForcedOperator {
             parameter_column,
             enough: NEWTON_FORCING * tolerance * size,
             products,
-            subspace,
+            subspace: None,
         }
+    }
+
+    /// The operator whose bordered solves are preconditioned by `subspace`, a recent point's
+    /// Krylov space (eq. (102b)); `None`: not preconditioned.
+    pub(super) fn preconditioned_by(mut self, subspace: Option<Arc<Subspace>>) -> Self {
+        self.subspace = subspace;
+        self
     }
 
     /// `out = D⁻¹ P Φ D y`: the shot map's derivative in the scaled unknowns, exact or to

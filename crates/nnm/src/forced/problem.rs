@@ -597,16 +597,18 @@ impl<S: MechanicalSystem + ?Sized> ForcedShooting<'_, '_, S> {
             })
             .collect();
         let size = linalg::norm(&u[..n2]);
-        let operator = Arc::new(ForcedOperator::new(
-            linearization,
-            flip.clone(),
-            scales,
-            parameter_column,
-            self.tolerance,
-            size,
-            self.products.clone(),
-            self.subspace.clone(),
-        ));
+        let operator = Arc::new(
+            ForcedOperator::new(
+                linearization,
+                flip.clone(),
+                scales,
+                parameter_column,
+                self.tolerance,
+                size,
+                self.products.clone(),
+            )
+            .preconditioned_by(self.subspace.clone()),
+        );
         self.chord = Some((Mat::zeros(0, 0), Some(operator.clone())));
         self.chord_residual = Some(relative_residual);
         ForcedEvaluation {
