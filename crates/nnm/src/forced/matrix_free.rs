@@ -71,6 +71,8 @@ pub struct ForcedOperator {
 pub(super) struct Subspace {
     basis: Vec<Vec<f64>>,
     images: Vec<Vec<f64>>,
+    /// `I − VᵀU` (`k × k`), the same in every bordered solve it preconditions.
+    projected: Vec<Vec<f64>>,
 }
 
 impl Subspace {
@@ -82,7 +84,7 @@ impl Subspace {
             return None;
         }
         let n = basis[0].len();
-        let images = columns
+        let images: Vec<Vec<f64>> = columns
             .iter()
             .map(|h| {
                 let mut u = vec![0.0; n];
@@ -92,9 +94,21 @@ impl Subspace {
                 u
             })
             .collect();
+        let basis = basis[..k].to_vec();
+        let projected = (0..k)
+            .map(|i| {
+                (0..k)
+                    .map(|j| {
+                        let identity = if i == j { 1.0 } else { 0.0 };
+                        identity - linalg::dot(&basis[i], &images[j])
+                    })
+                    .collect()
+            })
+            .collect();
         Some(Self {
-            basis: basis[..k].to_vec(),
+            basis,
             images,
+            projected,
         })
     }
 
@@ -113,10 +127,7 @@ impl Subspace {
         let bc = linalg::dot(&b[..n2], c);
         // [[I − VᵀU, −Vᵀc], [bᵀU, bᵀc]] (the border's own last entry multiplies η too).
         let small = Mat::from_fn(k + 1, k + 1, |i, j| match (i < k, j < k) {
-            (true, true) => {
-                let identity = if i == j { 1.0 } else { 0.0 };
-                identity - linalg::dot(&self.basis[i], &self.images[j])
-            }
+            (true, true) => self.projected[i][j],
             (true, false) => -vc[i],
             (false, true) => bu[j],
             (false, false) => bc + b[n2],
@@ -261,8 +272,8 @@ impl ForcedOperator {
     /// every eigenvalue (at [`MAX_ARNOLDI`] steps: every Ritz value, converged or not). Why not always to invariance: a lightly damped mesh has dozens of
     /// multipliers between 1e-10 and the floor (the 200-element von Kármán beam: ~30), which
     /// cannot take part in a crossing of the unit circle but cost a product each. Why a fixed
-    /// mixture of every coordinate as the start: it reaches every mode.
-    /// With them, the Krylov space the process built ([`Subspace`]).
+    /// mixture of every coordinate as the start: it reaches every mode. Returned with the
+    /// Krylov space the process built, which preconditions the next solves ([`Subspace`]).
     pub(super) fn shot_map_eigenvalues(
         &self,
         floor: f64,

@@ -160,7 +160,7 @@ pub fn sample(
     count: usize,
 ) -> Result<Vec<Vec<f64>>, IntegrationError> {
     let count = count.max(1);
-    sample_pieces(integrator, z0, drive, count, count)
+    integrator.sample_states(z0, drive, count, count)
 }
 
 /// [`sample`] of a half-wave symmetric motion, `z(τ + π) = S z(τ)` (eq. (99b); `signs` the
@@ -174,25 +174,11 @@ pub fn sample_half_wave(
     signs: &[f64],
 ) -> Result<Vec<Vec<f64>>, IntegrationError> {
     assert!(count % 2 == 0, "an even sample count");
-    let mut out = sample_pieces(integrator, z0, drive, count, count / 2)?;
+    let mut out = integrator.sample_states(z0, drive, count, count / 2)?;
     let mirrored: Vec<Vec<f64>> = (out.iter())
         .map(|z| z.iter().zip(signs).map(|(v, s)| s * v).collect())
         .collect();
     out.extend(mirrored);
-    Ok(out)
-}
-
-/// The first `pieces` of the `count` samples of [`sample`].
-fn sample_pieces(
-    integrator: &mut dyn ForcedIntegrator,
-    z0: &[f64],
-    drive: Drive,
-    count: usize,
-    pieces: usize,
-) -> Result<Vec<Vec<f64>>, IntegrationError> {
-    let mut out = integrator.sample_states(z0, drive, count, pieces)?;
-    // The mirrored half of [`sample_half_wave`] follows these.
-    out.reserve(count - pieces);
     Ok(out)
 }
 
