@@ -363,29 +363,46 @@ impl Matrix {
 mod tests {
     use super::*;
 
-    /// Rows whose terms cancel: plain summation loses the small ones entirely, the accurate
-    /// product gets the exact results (representable here, so exactly equal).
+    /// Rows whose own terms cancel: plain summation loses the small ones entirely, the
+    /// accurate product gets the exact results (representable here, so exactly equal), the
+    /// value already in `out` included; that value takes no part in the test of cancellation.
     #[test]
     fn accurate_product_keeps_what_cancellation_loses() {
         let big = 1e16;
-        let a =
-            SparseMatrix::from_triplets(2, &[(0, 0, big), (0, 1, 1.0), (1, 0, -big), (1, 1, 0.75)])
-                .unwrap();
-        // Row 0: 1e16·1 + 1·1 − … ; x chosen so that row sums cancel to small integers.
-        let x = [1.0, 1.0];
-        let mut plain = [-big, big];
-        a.apply_add(1.0, &x, 2, 1, &mut plain, 2);
-        let mut accurate = [-big, big];
+        // Row 0: 1e16 + 1 − 1e16 + 0.75; in plain arithmetic `1e16 + 1` rounds to `1e16`.
+        let a = SparseMatrix::from_triplets(
+            4,
+            &[
+                (0, 0, big),
+                (0, 1, 1.0),
+                (0, 2, -big),
+                (0, 3, 0.75),
+                (1, 1, 2.0),
+            ],
+        )
+        .unwrap();
+        let x = [1.0, 1.0, 1.0, 1.0];
+        let mut plain = [0.5, 0.0, 0.0, 0.0];
+        a.apply_add(1.0, &x, 4, 1, &mut plain, 4);
+        let mut accurate = [0.5, 0.0, 0.0, 0.0];
         a.apply_add_accurate(&x, &mut accurate);
-        assert_eq!(accurate, [1.0, 0.75]);
+        assert_eq!(accurate, [2.25, 2.0, 0.0, 0.0]);
         assert_ne!(
-            plain, accurate,
+            plain[0], accurate[0],
             "plain summation should lose the small terms here"
         );
-        // A product error: 0.1 · 3 is not representable; its rounding error is kept.
+        // A product error with the value in `out` cancelling the row: no term of the row
+        // cancels another, so the plain sum stands — `out` is a residual's other terms, whose
+        // own rounding the second pass could not undo.
         let b = SparseMatrix::from_triplets(1, &[(0, 0, 0.1)]).unwrap();
         let mut out = [-0.30000000000000004];
         b.apply_add_accurate(&[3.0], &mut out);
+        assert_eq!(out[0], 0.0);
+        // The same row with a second, cancelling term: the second pass keeps 0.1·3's exact
+        // rounding error.
+        let c = SparseMatrix::from_triplets(3, &[(0, 0, 0.1), (0, 1, -1e9), (0, 2, 1e9)]).unwrap();
+        let mut out = [-0.30000000000000004, 0.0, 0.0];
+        c.apply_add_accurate(&[3.0, 1.0, 1.0], &mut out);
         let exact_error = 0.1f64.mul_add(3.0, -0.30000000000000004);
         assert_eq!(out[0], exact_error);
         assert!(out[0] != 0.0);
