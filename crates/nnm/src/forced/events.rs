@@ -2,7 +2,8 @@
 //! points and located on the segment (docs/method.md eq. (102)).
 //!
 //! - A **fold** (turning point in the parameter) is where the parameter's component of the
-//!   tangent changes sign; located by the Illinois variant of regula falsi on that component.
+//!   tangent changes sign; located on that component, the first trial where the cubic
+//!   through the segment's ends turns, the others by regula falsi (Anderson–Björck).
 //! - A **Neimark–Sacker**, **period-doubling** or **branch-point** bifurcation is where a
 //!   complex pair, a real negative or a real positive multiplier leaves (or enters) the unit
 //!   circle: the count of multipliers outside it changes. Located on `|μ_c| − 1`, `μ_c` the
@@ -92,31 +93,89 @@ fn unstable_of_kind(point: &ResponsePoint, kind: ResponseEventKind) -> usize {
         .count()
 }
 
+/// Where the cubic through two points of a curve `p(s)`, with their values and slopes,
+/// turns between them (eq. (102c)): `a = (s, p, dp/ds)` and `b` likewise, the slopes of
+/// opposite signs. The derivative of the Hermite cubic on `[s_a, s_b]` is the quadratic
+/// `q(θ) = m_a + Bθ + Cθ²` with `q(1) = m_b` and mean `(p_b − p_a)/h`: `C = 3(m_a + m_b) −
+/// 6(p_b − p_a)/h`, `B = m_b − m_a − C`; its one root in `(0, 1)` (`q(0) q(1) < 0`). `None`
+/// if rounding puts it outside.
+fn hermite_turn(a: (f64, f64, f64), b: (f64, f64, f64)) -> Option<f64> {
+    let h = b.0 - a.0;
+    let (ma, mb) = (a.2, b.2);
+    let c = 3.0 * (ma + mb) - 6.0 * (b.1 - a.1) / h;
+    let bq = mb - ma - c;
+    let inside = |theta: f64| (0.0..=1.0).contains(&theta).then_some(a.0 + theta * h);
+    if c.abs() <= 1e-12 * bq.abs() {
+        return inside(-ma / bq);
+    }
+    let discriminant = bq * bq - 4.0 * c * ma;
+    if discriminant < 0.0 {
+        return None;
+    }
+    // The roots `q/C` and `m_a/q` without cancellation.
+    let q = -0.5 * (bq + bq.signum() * discriminant.sqrt());
+    [q / c, ma / q]
+        .into_iter()
+        .find_map(|theta| inside(theta).filter(|s| s.is_finite()))
+}
+
+/// What a location is of: a zero of a function of the point that changes sign across the
+/// segment, or a fold — the zero of the parameter's tangent component, whose first trial is
+/// the turn of the cubic through the segment's ends ([`hermite_turn`]).
+enum Located<'a> {
+    Zero(&'a dyn Fn(&ResponsePoint) -> f64),
+    Turn,
+}
+
 impl ResponseEvents {
-    /// Locates a zero of `value(point)` on the segment by Illinois regula falsi in the
-    /// arclength, from its ends' values; stops when `|value| ≤ accuracy` or the bracket is
+    /// Locates a zero of `located` on the segment, from its ends' values: a fold's first
+    /// trial by eq. (102c), every other trial by regula falsi in the arclength with the
+    /// Anderson–Björck modification. Stops when `|value| ≤ accuracy` or the bracket is
     /// below `1e-12` of the segment.
     fn locate<P>(
         &self,
         segment: &mut Segment<'_, P>,
-        value: impl Fn(&ResponsePoint) -> f64,
+        located: Located<'_>,
         accuracy: f64,
     ) -> Option<ResponsePoint>
     where
         P: ContinuationProblem<Point = ResponsePoint>,
     {
         let length = segment.length();
+        let last = segment.previous().0.tangent.len() - 1;
+        let value = |point: &ResponsePoint| match &located {
+            Located::Zero(value) => value(point),
+            Located::Turn => point.tangent[last],
+        };
         let (mut a, mut fa) = (0.0, value(segment.previous().1));
         let (mut b, mut fb) = (length, value(segment.next().1));
+        // The cubic's turn from each end's parameter and its slope `dp/ds = t_p/(t · t₀)`
+        // (the tangents are unit and `s` is measured along the first end's, `t₀`).
+        let turn = matches!(located, Located::Turn).then(|| {
+            let direction = &segment.previous().0.tangent;
+            let end = |point: &ResponsePoint, s: f64| {
+                let along = crate::linalg::dot(&point.tangent, direction);
+                (s, point.unknowns[last], point.tangent[last] / along)
+            };
+            hermite_turn(end(segment.previous().1, a), end(segment.next().1, b))
+        });
         let mut best: Option<ResponsePoint> = None;
         let mut side = 0i8;
         for trial in 0..MAX_TRIALS {
-            let s = if fb != fa {
-                (a * fb - b * fa) / (fb - fa)
-            } else {
-                0.5 * (a + b)
+            // A fold's first trial is the cubic's turn; later ones are regula falsi on the
+            // tangent component: on a bracket that short the parameter's change along it is
+            // of the order of the corrector's error in it, and the cubic follows that noise
+            // (on the ECL beam's upper fold, trials then halved the component each time).
+            let s = match turn.flatten().filter(|_| trial == 0) {
+                Some(s) => s,
+                None if fb != fa => (a * fb - b * fa) / (fb - fa),
+                None => 0.5 * (a + b),
             };
-            let s = s.clamp(a + 1e-3 * (b - a), b - 1e-3 * (b - a));
+            // Kept off the bracket's ends by a billionth of the segment, not by a fraction
+            // of the bracket: a fold 3.7e-7 from a trial, in a bracket still reaching the
+            // segment's far end, took a trial 4.5e-5 away at a thousandth of the bracket.
+            let margin = 1e-9 * length.abs();
+            let s = s.clamp(a + margin, b - margin);
             let point = segment.point_at(s, Detail::Light, 0.1).ok()?;
             segment.add_location_steps(1);
             let f = value(&point);
@@ -127,24 +186,34 @@ impl ResponseEvents {
             {
                 break;
             }
+            // Anderson–Björck: an end kept twice in a row has its value scaled by `1 − f/f'`
+            // (`f'` the value the new trial replaces; a half if that is not positive), so
+            // that the next secant reaches past the trials crowding the other end.
+            let scale = |replaced: f64| {
+                let m = 1.0 - f / replaced;
+                if m > 0.0 { m } else { 0.5 }
+            };
             if f.signum() == fa.signum() {
-                (a, fa) = (s, f);
                 if side == -1 {
-                    fb *= 0.5;
+                    fb *= scale(fa);
                 }
+                (a, fa) = (s, f);
                 side = -1;
             } else {
-                (b, fb) = (s, f);
                 if side == 1 {
-                    fa *= 0.5;
+                    fa *= scale(fb);
                 }
+                (b, fb) = (s, f);
                 side = 1;
             }
         }
         let point = best?;
-        // The located point with its peaks.
+        // The located point with its peaks, corrected to a hundredth of the tolerance: a
+        // fold's parameter is where the response jumps, and the trials' tenth left it off by
+        // up to 4e-9 relative (the half-period Duffing curve's upper fold against its
+        // whole-period one, which a trial more had happened to tighten).
         let s = point.step;
-        segment.point_at(s, Detail::Full, 0.1).ok()
+        segment.point_at(s, Detail::Full, 0.01).ok()
     }
 }
 
@@ -166,7 +235,7 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<ForcedShooting<'_, '_, S>> for 
             // slope — and `p` off by `5e-7·tolerance/κ` (scaled units, κ of order one on a
             // resolved curve).
             let accuracy = 1e-3 * self.tolerance.sqrt();
-            if let Some(point) = self.locate(segment, |p| p.tangent[last], accuracy) {
+            if let Some(point) = self.locate(segment, Located::Turn, accuracy) {
                 let critical_multiplier =
                     critical(&point, ResponseEventKind::Fold).map_or((1.0, 0.0), |c| c.1);
                 events.push(ResponseEvent {
@@ -194,7 +263,7 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<ForcedShooting<'_, '_, S>> for 
             if !bracketed {
                 continue;
             }
-            if let Some(point) = self.locate(segment, value, self.tolerance) {
+            if let Some(point) = self.locate(segment, Located::Zero(&value), self.tolerance) {
                 let critical_multiplier = critical(&point, kind).map_or((f64::NAN, 0.0), |c| c.1);
                 events.push(ResponseEvent {
                     kind,
@@ -205,5 +274,30 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<ForcedShooting<'_, '_, S>> for 
         }
         events.sort_by(|a, b| a.point.step.total_cmp(&b.point.step));
         events
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::hermite_turn;
+
+    /// The cubic through two points with their slopes is exact for a cubic: its turn is the
+    /// root of `p'` itself — `p = s³/3 − s/4` turns at `s = 1/2`; the quadratic `p = −(s −
+    /// 0.3)²` (the cubic's leading coefficient zero) at 0.3; and on a shifted, scaled bracket.
+    #[test]
+    fn hermite_turn_is_exact_for_cubics() {
+        let cubic = |s: f64| (s * s * s / 3.0 - 0.25 * s, s * s - 0.25);
+        let end = |f: &dyn Fn(f64) -> (f64, f64), s: f64| (s, f(s).0, f(s).1);
+        let turn = hermite_turn(end(&cubic, 0.0), end(&cubic, 1.0)).unwrap();
+        assert!((turn - 0.5).abs() < 1e-15, "{turn}");
+        let quadratic = |s: f64| (-(s - 0.3) * (s - 0.3), -2.0 * (s - 0.3));
+        let turn = hermite_turn(end(&quadratic, 0.0), end(&quadratic, 1.0)).unwrap();
+        assert!((turn - 0.3).abs() < 1e-15, "{turn}");
+        let turn = hermite_turn(end(&cubic, -0.2), end(&cubic, 0.9)).unwrap();
+        assert!((turn - 0.5).abs() < 1e-14, "{turn}");
+        // A descending turn (a maximum) from the other side.
+        let negative = |s: f64| (-cubic(s).0, -cubic(s).1);
+        let turn = hermite_turn(end(&negative, 0.1), end(&negative, 2.0)).unwrap();
+        assert!((turn - 0.5).abs() < 1e-14, "{turn}");
     }
 }
