@@ -35,6 +35,7 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
             .with_context(|| format!("branch `{}`: modal analysis failed", b.name))?;
     }
     let requests = resolve(&job.structure, &job.branches, &modes)?;
+    check_responses_resolvable(&job.responses, &modes)?;
     let _lock = OutDir::lock(out)?;
     warn_of_foreign_branches(out, &job.branches);
     write_modes_csv(&out.join("modes.csv"), &modes)?;
@@ -79,6 +80,29 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
         );
     }
     verdict
+}
+
+/// Refuses a response whose forcing frequencies the model's lowest natural frequency puts out
+/// of reach ([`nnm::forced::check_sweep_resolvable`]), before anything is written.
+fn check_responses_resolvable(
+    responses: &[nnm_io::job::ResponseJob],
+    modes: &[nnm::modes::LinearMode],
+) -> Result<()> {
+    let lowest = modes
+        .iter()
+        .map(|m| m.frequency)
+        .filter(|&w| w > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if !lowest.is_finite() {
+        return Ok(());
+    }
+    for r in responses {
+        for sweep in &r.body.curves {
+            nnm::forced::check_sweep_resolvable(sweep, lowest)
+                .map_err(|e| anyhow::anyhow!("response `{}`: {e}", r.name))?;
+        }
+    }
+    Ok(())
 }
 
 /// The run's verdict, most serious first: interrupted (Ctrl-C stopped or skipped a branch; one

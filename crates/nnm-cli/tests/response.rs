@@ -115,6 +115,38 @@ fn a_bad_response_is_one_line_and_writes_nothing() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A sweep reaching far below the model's resonances (a forcing period of 10¹⁷ of its
+/// longest) is refused before the job's branch is computed and written: one line, exit 1,
+/// nothing written; at the lowest frequency allowed the curve runs.
+#[test]
+fn a_sweep_below_the_resolvable_frequencies_is_refused_before_any_branch() {
+    let dir = scratch("low-frequency");
+    let text = |start: &str| {
+        format!(
+            "[model]\nfamily = \"duffing\"\ndamping = {{ rayleigh = [0.02, 0.0] }}\n[[branch]]\nname = \"b\"\nmode = 0\nmax_points = 2\n[[response]]\nname = \"frc\"\nforce = {{ dofs = [0], amplitude = 0.1 }}\nfrequency_start = {start}\nfrequency_end = 1.3\nmax_points = 2\n"
+        )
+    };
+    let job = write(&dir, "job.toml", &text("1e-17"));
+    let out = dir.join("out");
+    let output = nnm(&["run", &job, "--out", out.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(
+        stderr.trim_end(),
+        "error: response `frc`: frequency_start 1e-17 rad/s is below 0.001 of the model's lowest natural frequency (1 rad/s): a forcing period the integrators cannot resolve"
+    );
+    assert!(!out.exists());
+    let job = write(&dir, "job.toml", &text("1e-3"));
+    let output = nnm(&["run", &job, "--out", out.to_str().unwrap()]);
+    assert_eq!(
+        output.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Ctrl-C during a response stops its curve at the next point and skips the others: every
 /// point computed is in the CSV and in the JSON (a valid document), the summary says so and
 /// the exit code is 130.

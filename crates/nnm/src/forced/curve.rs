@@ -229,6 +229,39 @@ pub fn check_sweep(sweep: &Sweep) -> Result<(), ResponseError> {
     Ok(())
 }
 
+/// The lowest forcing frequency a curve may reach, as a fraction of the model's lowest
+/// natural frequency: a period of a thousand of the model's longest. The first point of a
+/// damped Duffing oscillator's curve (ζ = 0.01) converged down to `3e-4 ω₁` and its stage
+/// equations did not at `1e-4 ω₁`; the command line's two-dof property model's, to `1e-5 ω₁`;
+/// at `Ω = 1e-300` rad/s a step of 1e299 s made the stage system singular — after the job's
+/// branches had been written. So far below the resonances the motion is the static
+/// deflection a linear solve gives.
+pub const LOWEST_FREQUENCY_RATIO: f64 = 1e-3;
+
+/// Checks a sweep against the model it drives, before anything is computed: its frequencies
+/// at least [`LOWEST_FREQUENCY_RATIO`] of `lowest_natural_frequency` (rad/s; the smallest
+/// positive one of the model).
+pub fn check_sweep_resolvable(
+    sweep: &Sweep,
+    lowest_natural_frequency: f64,
+) -> Result<(), ResponseError> {
+    let floor = LOWEST_FREQUENCY_RATIO * lowest_natural_frequency;
+    let number = crate::number::Number;
+    let (key, frequency) = match *sweep {
+        Sweep::Frequency { from, to, .. } => ("frequency_start", from.min(to)),
+        Sweep::Amplitude { frequency, .. } => ("frequency", frequency),
+    };
+    if frequency < floor {
+        return Err(ResponseError::Invalid(format!(
+            "{key} {} rad/s is below {} of the model's lowest natural frequency ({} rad/s): a forcing period the integrators cannot resolve",
+            number(frequency),
+            number(LOWEST_FREQUENCY_RATIO),
+            number(lowest_natural_frequency)
+        )));
+    }
+    Ok(())
+}
+
 /// The scales of the unknowns: the largest linear response over the sweep (on a grid of
 /// frequencies refined at its peak, or at the largest amplitude) as the Euclidean norm of its
 /// displacement amplitude, its velocity at the sweep's frequency, and the sweep's width.

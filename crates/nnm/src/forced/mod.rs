@@ -19,8 +19,8 @@ mod matrix_free;
 mod problem;
 
 pub use curve::{
-    MATRIX_FREE_DOFS, ResponseCurve, ResponseError, ResponseItem, ResponseSettings, ResponseStop,
-    check_sweep, forced_response,
+    LOWEST_FREQUENCY_RATIO, MATRIX_FREE_DOFS, ResponseCurve, ResponseError, ResponseItem,
+    ResponseSettings, ResponseStop, check_sweep, check_sweep_resolvable, forced_response,
 };
 pub use events::{ResponseEvent, ResponseEventKind, ResponseEvents};
 pub use force::{Force, ForceError};
