@@ -15,7 +15,8 @@ use crate::integrate::IntegrationSettings;
 #[serde(default)]
 pub struct StartSettings {
     /// Linear energy of the first guess; `None`: where the nonlinear forces are 1e-4 of the
-    /// linear ones along the mode.
+    /// linear ones along the mode, or their work on the mode when the forces alone leave it
+    /// linear (docs/method.md eq. (16)).
     pub energy_start: Option<f64>,
     /// On cyclic models with a verified mirror symmetry, keep the unknowns in the starting
     /// mode's symmetry class (default true).

@@ -77,7 +77,8 @@ pub enum StartError {
 
 impl Start {
     /// Starts on linear mode `index` (0-based, ascending frequency) of `system`, at the
-    /// amplitude where the nonlinear forces are 1e-4 of the linear ones. Computes the linear
+    /// default amplitude of eq. (16) (nonlinear forces 1e-4 of the linear ones; their work on
+    /// the mode, when the forces alone leave it linear). Computes the linear
     /// modes; [`Start::from_linear_mode`] takes them when they are already known.
     pub fn from_mode<S: MechanicalSystem + ?Sized>(
         system: &S,
@@ -89,7 +90,9 @@ impl Start {
 
     /// Starts on linear mode `index` scaled to the linear energy `energy`; when `energy` is
     /// `None`, at the amplitude where the nonlinear forces are 1e-4 of the linear ones (so
-    /// the first point is nearly linear whatever the units of the model). When the structure
+    /// the first point is nearly linear whatever the units of the model), or where their work
+    /// on the mode is, when there it is a hundred times less ([`starting_amplitude`]: a
+    /// quadratic coupling, which has not moved the frequency yet). When the structure
     /// has a verified mirror symmetry, the unknowns are restricted to the invariant class of
     /// the starting mode ([`crate::symmetry`]); [`Start::unrestricted`] undoes that.
     pub fn from_linear_mode<S: MechanicalSystem + ?Sized>(
@@ -132,7 +135,7 @@ impl Start {
                     crate::number::Number(e)
                 )));
             }
-            None => weakly_nonlinear_amplitude(system, &mode.shape, 1e-4),
+            None => starting_amplitude(system, &mode.shape),
         };
         let mut z0 = vec![0.0; 2 * n];
         for (z, s) in z0.iter_mut().zip(&mode.shape) {
@@ -457,51 +460,96 @@ fn rigid_modes_decouple<S: MechanicalSystem + ?Sized>(
 }
 
 /// The smallest amplitude `c` at which `‖f_nl(c φ)‖ = ratio ‖K c φ‖` (1 when the model is
-/// linear along `φ`), with `K = K_t(0)` and `f_nl = f_int - K x`: the first crossing found by
-/// scanning `log c` upwards in half decades from 1e-12, then bisected. (The first crossing,
-/// not any: a non-polynomial force such as the pendulum's `sin θ - θ` oscillates about the
-/// ratio far away.)
+/// linear along `φ`), with `K = K_t(0)` and `f_nl = f_int - K x` ([`first_crossing`]).
+fn weakly_nonlinear_amplitude<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    shape: &[f64],
+    ratio: f64,
+) -> f64 {
+    let k_norm = linalg::norm(&split_force(system, shape, 1.0).1);
+    first_crossing(system, shape, ratio, |nonlinear, _, c| {
+        linalg::norm(nonlinear) / (c * k_norm)
+    })
+    .unwrap_or(1.0)
+}
+
+/// The default starting amplitude along mode `φ` (eq. (16)): where the nonlinear force is
+/// `10⁻⁴` of the linear one ([`weakly_nonlinear_amplitude`]) — unless there its work on the
+/// mode, `φᵀ f_nl(c φ)`, is below a hundredth of that, relative to the linear force's
+/// `c φᵀ K φ`: a nonlinearity that only couples the mode to others (a quadratic one) and has
+/// not yet moved its frequency. Then the start is where that work reaches `10⁻⁴` of the
+/// linear one's (a frequency shift of about `4·10⁻⁵` when the mode's own nonlinearity is
+/// cubic), or the force ratio's amplitude when it never does.
+///
+/// Why: the von Kármán beam's membrane force, quadratic in the transverse displacement, is
+/// `10⁻⁴` of the linear one at `E = 9·10⁻¹² J` on its first bending mode, where the
+/// frequency has moved by 1e-12; imported as files (no hand-chosen `energy_start`), its
+/// 10⁴-dof branch spent 20 minutes there. Models whose nonlinearity acts on the mode itself
+/// keep the force ratio's start.
+fn starting_amplitude<S: MechanicalSystem + ?Sized>(system: &S, shape: &[f64]) -> f64 {
+    const RATIO: f64 = 1e-4;
+    let work = |nonlinear: &[f64], linear: &[f64], _: f64| {
+        (linalg::dot(shape, nonlinear) / linalg::dot(shape, linear)).abs()
+    };
+    let by_force = weakly_nonlinear_amplitude(system, shape, RATIO);
+    let (nonlinear, linear) = split_force(system, shape, by_force);
+    // Negated: a NaN work ratio keeps the force ratio's start.
+    if !(work(&nonlinear, &linear, by_force) < 1e-2 * RATIO) {
+        return by_force;
+    }
+    first_crossing(system, shape, RATIO, work).unwrap_or(by_force)
+}
+
+/// `(f_nl(c φ), K c φ)`, `K = K_t(0)`, `f_nl = f_int − K x`.
 ///
 /// The linear part `K x` is the internal force itself at `2⁻⁶⁰ x`, scaled back: exact
 /// scalings by a power of two, so that the same arithmetic makes both and `f_nl` is read
 /// without their round-off. (Formed apart, by the tangent applied to `φ` and times `c`, the
 /// two differ by `ε ‖K‖ ‖x‖`, which on a 1,000-element beam, `‖K‖/‖K φ‖ ≈ 10¹⁴`, passes the
 /// ratio at every amplitude: the branch started twelve decades too low.)
+fn split_force<S: MechanicalSystem + ?Sized>(
+    system: &S,
+    shape: &[f64],
+    c: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    const TINY: f64 = 1.0 / (1u64 << 60) as f64;
+    let n = shape.len();
+    let x: Vec<f64> = shape.iter().map(|s| c * s).collect();
+    let small: Vec<f64> = x.iter().map(|v| v * TINY).collect();
+    let mut linear = vec![0.0; n];
+    system.internal_force(&small, &mut linear);
+    linear.iter_mut().for_each(|v| *v /= TINY);
+    let mut f = vec![0.0; n];
+    system.internal_force(&x, &mut f);
+    let nonlinear = f.iter().zip(&linear).map(|(f, k)| f - k).collect();
+    (nonlinear, linear)
+}
+
+/// The smallest amplitude `c` at which `measure(f_nl(c φ), K c φ, c)` exceeds `ratio`
+/// ([`split_force`]): the first crossing found by scanning `log c` upwards in half decades
+/// from 1e-12, then bisected; `None` when there is none up to 1e12. (The first crossing, not
+/// any: a non-polynomial force such as the pendulum's `sin θ - θ` oscillates about the ratio
+/// far away.)
 // Negated comparisons are deliberate: a NaN ratio must count as "not above".
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
-fn weakly_nonlinear_amplitude<S: MechanicalSystem + ?Sized>(
+fn first_crossing<S: MechanicalSystem + ?Sized>(
     system: &S,
     shape: &[f64],
     ratio: f64,
-) -> f64 {
-    let n = shape.len();
-    const TINY: f64 = 1.0 / (1u64 << 60) as f64;
-    let linear_force = |x: &[f64]| {
-        let small: Vec<f64> = x.iter().map(|v| v * TINY).collect();
-        let mut f = vec![0.0; n];
-        system.internal_force(&small, &mut f);
-        f.iter_mut().for_each(|v| *v /= TINY);
-        f
-    };
-    let k_norm = linalg::norm(&linear_force(shape));
+    measure: impl Fn(&[f64], &[f64], f64) -> f64,
+) -> Option<f64> {
     let above = |log_c: f64| {
         let c = 10f64.powf(log_c);
-        let x: Vec<f64> = shape.iter().map(|s| c * s).collect();
-        let mut f = vec![0.0; n];
-        system.internal_force(&x, &mut f);
-        let nonlinear: Vec<f64> = f.iter().zip(linear_force(&x)).map(|(f, k)| f - k).collect();
-        linalg::norm(&nonlinear) / (c * k_norm) > ratio
+        let (nonlinear, linear) = split_force(system, shape, c);
+        measure(&nonlinear, &linear, c) > ratio
     };
     const LOWEST: f64 = -12.0;
     if above(LOWEST) {
-        return 10f64.powf(LOWEST);
+        return Some(10f64.powf(LOWEST));
     }
-    let Some(first) = (1..=48)
+    let first = (1..=48)
         .map(|k| LOWEST + 0.5 * k as f64)
-        .find(|&log_c| above(log_c))
-    else {
-        return 1.0;
-    };
+        .find(|&log_c| above(log_c))?;
     let (mut lo, mut hi) = (first - 0.5, first);
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
@@ -511,5 +559,5 @@ fn weakly_nonlinear_amplitude<S: MechanicalSystem + ?Sized>(
             lo = mid;
         }
     }
-    10f64.powf(lo)
+    Some(10f64.powf(lo))
 }
