@@ -203,6 +203,25 @@ fn exported_von_karman_beam(built_in: &Structure) -> Result<Structure> {
     Ok(loaded?.structure)
 }
 
+/// The first mode's backbone of a von Kármán beam built in and of the same beam imported
+/// from files, both from the default start, as a user has them (docs/method.md eq. (16a)).
+fn backbone_built_in_and_imported(
+    case: &str,
+    (built_in, imported): (&Structure, &Structure),
+    settings: &Settings,
+) -> Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    for (label, model) in [("built-in", built_in), ("imported", imported)] {
+        rows.extend(variant_rows(
+            case,
+            model,
+            &start_at(model, "0", None)?,
+            &[(label, settings.clone())],
+        )?);
+    }
+    Ok(rows)
+}
+
 /// The linear frequency of mode `label`.
 fn mode_frequency(structure: &Structure, label: &str) -> Result<f64> {
     let modes = linear_modes(structure)?;
@@ -444,16 +463,11 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
         // The same beam as a user of an FE code has it: M, K and the polynomial terms written
         // to files by `nnm export` and read back as `nnm run` reads them.
         let imported = exported_von_karman_beam(&plate)?;
-        // At the default start, as a user has it (docs/method.md eq. (16a)).
-        let case = "von Karman 20 el. (57 dofs) to +8%";
-        for (label, model) in [("built-in", &plate), ("imported", &imported)] {
-            rows.extend(variant_rows(
-                case,
-                model,
-                &start_at(model, "0", None)?,
-                &[(label, beam_settings(0.08))],
-            )?);
-        }
+        rows.extend(backbone_built_in_and_imported(
+            "von Karman 20 el. (57 dofs) to +8%",
+            (&plate, &imported),
+            &beam_settings(0.08),
+        )?);
         sizes.push(2);
         let case = "von Karman 20 el.: forced middle";
         for (label, model) in [("built-in", &plate), ("imported", &imported)] {
@@ -512,17 +526,13 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
         }
         .build()?;
         eprintln!("bench: von Karman beam of 3,333 elements");
-        // Built-in and imported as files, both at the default start (issue 28's case).
+        // Built-in and imported as files (issue 28's case).
         let imported = exported_von_karman_beam(&plate)?;
-        let case = "von Karman 3,333 el. (9,996 dofs) to +8%";
-        for (label, model) in [("built-in", &plate), ("imported", &imported)] {
-            rows.extend(variant_rows(
-                case,
-                model,
-                &start_at(model, "0", None)?,
-                &[(label, beam_settings(0.08))],
-            )?);
-        }
+        rows.extend(backbone_built_in_and_imported(
+            "von Karman 3,333 el. (9,996 dofs) to +8%",
+            (&plate, &imported),
+            &beam_settings(0.08),
+        )?);
         sizes.push(2);
         // Its first resonance at 10,005 dofs (3,336 elements: a middle node), built-in and
         // imported: issue 27's largest case.

@@ -102,17 +102,23 @@ fn a_bad_response_is_one_line_and_writes_nothing() {
         "[model]\nfamily = \"duffing\"\ndamping = { rayleigh = [0.02, 0.0] }\n[[response]]\nname = \"frc\"\nforce = { dofs = [0], amplitude = 0.1 }\nfrequency_start = 3.5\nfrequency_end = 0.5\n",
     );
     let out = dir.join("out");
-    let output = nnm(&["run", &job, "--out", out.to_str().unwrap()]);
-    assert_eq!(output.status.code(), Some(1));
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(
-        stderr.trim_end(),
-        format!(
+    assert_refused(
+        &job,
+        &out,
+        &format!(
             "error: {job}: response `frc`: frequency_end must exceed frequency_start (3.5), got 0.5"
-        )
+        ),
     );
-    assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `nnm run job --out out` ends with exit 1 and the one line `message` on stderr, `out` not
+/// created.
+fn assert_refused(job: &str, out: &std::path::Path, message: &str) {
+    let output = nnm(&["run", job, "--out", out.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(1));
+    assert_eq!(String::from_utf8_lossy(&output.stderr).trim_end(), message);
+    assert!(!out.exists());
 }
 
 /// A sweep reaching far below the model's resonances (a forcing period of 10¹⁷ of its
@@ -128,14 +134,11 @@ fn a_sweep_below_the_resolvable_frequencies_is_refused_before_any_branch() {
     };
     let job = write(&dir, "job.toml", &text("1e-17"));
     let out = dir.join("out");
-    let output = nnm(&["run", &job, "--out", out.to_str().unwrap()]);
-    assert_eq!(output.status.code(), Some(1));
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(
-        stderr.trim_end(),
-        "error: response `frc`: frequency_start 1e-17 rad/s is below 0.001 of the model's lowest natural frequency (1 rad/s): a forcing period the integrators cannot resolve"
+    assert_refused(
+        &job,
+        &out,
+        "error: response `frc`: frequency_start 1e-17 rad/s is below 0.001 of the model's lowest natural frequency (1 rad/s): a forcing period the integrators cannot resolve",
     );
-    assert!(!out.exists());
     let job = write(&dir, "job.toml", &text("1e-3"));
     let output = nnm(&["run", &job, "--out", out.to_str().unwrap()]);
     assert_eq!(

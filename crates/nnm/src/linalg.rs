@@ -338,8 +338,12 @@ fn accurate_row_dot(init: f64, columns: &[usize], values: &[f64], x: &[f64]) -> 
 }
 
 /// `init + Σ terms`: summed plainly, and again in twice the working precision from the same
-/// terms given exactly (`head + tail`, [`accurate_sum`]) when they cancel more than
-/// `cancellation`-fold (`Σ|terms| / |sum|`; docs/method.md eqs. (57a), (76c)). The plain pass
+/// terms given exactly (`head + tail`, [`accurate_sum`], `init` included) when they cancel
+/// more than `cancellation`-fold among themselves (`Σ|terms| / |Σ terms|`; docs/method.md
+/// eqs. (57a), (76c)) — `init` takes no part in the test, as in [`sparse_row_dot`]: a sum
+/// added to another force that it balances (a tensor's cubic rows to its quadratic ones, on
+/// a von Kármán beam whose membrane force is their small difference) would otherwise be
+/// redone whatever its own terms do, for no gain over `init`'s own rounding. The plain pass
 /// costs one absolute value more per term; the plain sum is left with up to `ε` times
 /// `cancellation` of round-off per term.
 #[inline(always)]
@@ -349,13 +353,13 @@ pub fn cancelling_sum<E: Iterator<Item = (f64, f64)>>(
     exact_terms: impl FnOnce() -> E,
     cancellation: f64,
 ) -> f64 {
-    let (mut sum, mut size) = (init, init.abs());
+    let (mut sum, mut size) = (0.0f64, 0.0f64);
     for term in terms {
         sum += term;
         size += term.abs();
     }
     if size <= cancellation * sum.abs() {
-        return sum;
+        return init + sum;
     }
     with_fused_multiply_add(|| accurate_sum(init, exact_terms()))
 }

@@ -486,6 +486,7 @@ fn weakly_nonlinear_amplitude<S: MechanicalSystem + ?Sized>(
 /// frequency has moved by 1e-12; imported as files (no hand-chosen `energy_start`), its
 /// 10⁴-dof branch spent 20 minutes there. Models whose nonlinearity acts on the mode itself
 /// keep the force ratio's start.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn starting_amplitude<S: MechanicalSystem + ?Sized>(system: &S, shape: &[f64]) -> f64 {
     const RATIO: f64 = 1e-4;
     let work = |nonlinear: &[f64], linear: &[f64], _: f64| {
@@ -493,7 +494,7 @@ fn starting_amplitude<S: MechanicalSystem + ?Sized>(system: &S, shape: &[f64]) -
     };
     let by_force = weakly_nonlinear_amplitude(system, shape, RATIO);
     let (nonlinear, linear) = split_force(system, shape, by_force);
-    // Negated: a NaN work ratio keeps the force ratio's start.
+    // Negated comparison deliberate: a NaN work ratio keeps the force ratio's start.
     if !(work(&nonlinear, &linear, by_force) < 1e-2 * RATIO) {
         return by_force;
     }
