@@ -131,7 +131,7 @@ impl ResponseEvents {
     /// Locates a zero of `located` on the segment, from its ends' values: a fold's first
     /// trial by eq. (102c), every other trial by regula falsi in the arclength with the
     /// Anderson–Björck modification. Stops when `|value| ≤ accuracy` or the bracket is
-    /// below `1e-12` of the segment.
+    /// below four billionths of the segment.
     fn locate<P>(
         &self,
         segment: &mut Segment<'_, P>,
@@ -159,9 +159,18 @@ impl ResponseEvents {
             };
             hermite_turn(end(segment.previous().1, a), end(segment.next().1, b))
         });
+        // Trials are kept off the bracket's ends by a billionth of the segment, not by a
+        // fraction of the bracket: a fold 3.7e-7 from a trial, in a bracket still reaching the
+        // segment's far end, took a trial 4.5e-5 away at a thousandth of the bracket. A bracket
+        // of a few margins ends the location: the value's own noise is what is left to chase
+        // (on the 10⁴-dof von Kármán curve the bracket closed before `accuracy` was met).
+        let margin = 1e-9 * length.abs();
         let mut best: Option<ResponsePoint> = None;
         let mut side = 0i8;
         for trial in 0..MAX_TRIALS {
+            if best.is_some() && b - a <= 4.0 * margin {
+                break;
+            }
             // A fold's first trial is the cubic's turn; later ones are regula falsi on the
             // tangent component: on a bracket that short the parameter's change along it is
             // of the order of the corrector's error in it, and the cubic follows that noise
@@ -171,19 +180,16 @@ impl ResponseEvents {
                 None if fb != fa => (a * fb - b * fa) / (fb - fa),
                 None => 0.5 * (a + b),
             };
-            // Kept off the bracket's ends by a billionth of the segment, not by a fraction
-            // of the bracket: a fold 3.7e-7 from a trial, in a bracket still reaching the
-            // segment's far end, took a trial 4.5e-5 away at a thousandth of the bracket.
-            let margin = 1e-9 * length.abs();
-            let s = s.clamp(a + margin, b - margin);
+            let s = if b - a > 2.0 * margin {
+                s.clamp(a + margin, b - margin)
+            } else {
+                0.5 * (a + b)
+            };
             let point = segment.point_at(s, Detail::Light, 0.1).ok()?;
             segment.add_location_steps(1);
             let f = value(&point);
             best = Some(point);
-            if f.abs() <= accuracy
-                || (b - a).abs() <= 1e-12 * length.abs()
-                || trial + 1 == MAX_TRIALS
-            {
+            if f.abs() <= accuracy || trial + 1 == MAX_TRIALS {
                 break;
             }
             // Anderson–Björck: an end kept twice in a row has its value scaled by `1 − f/f'`
