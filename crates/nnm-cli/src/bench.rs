@@ -469,6 +469,15 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
             &beam_settings(0.08),
         )?);
         sizes.push(2);
+        // The same at default settings, events on, as a user has them (issue 28).
+        let mut defaults = Settings::default();
+        defaults.limits.frequency_shift_max = 0.08;
+        rows.extend(backbone_built_in_and_imported(
+            "von Karman 20 el. to +8%, events on",
+            (&plate, &imported),
+            &defaults,
+        )?);
+        sizes.push(2);
         let case = "von Karman 20 el.: forced middle";
         for (label, model) in [("built-in", &plate), ("imported", &imported)] {
             rows.push(von_karman_resonance_row(case, label, model)?);
