@@ -151,14 +151,17 @@ impl ResponseEvents {
         let (mut b, mut fb) = (length, value(segment.next().1));
         // The cubic's turn from each end's parameter and its slope `dp/ds = t_p/(t · t₀)`
         // (the tangents are unit and `s` is measured along the first end's, `t₀`).
-        let turn = matches!(located, Located::Turn).then(|| {
-            let direction = &segment.previous().0.tangent;
-            let end = |point: &ResponsePoint, s: f64| {
-                let along = crate::linalg::dot(&point.tangent, direction);
-                (s, point.unknowns[last], point.tangent[last] / along)
-            };
-            hermite_turn(end(segment.previous().1, a), end(segment.next().1, b))
-        });
+        let turn = match located {
+            Located::Turn => {
+                let direction = &segment.previous().0.tangent;
+                let end = |point: &ResponsePoint, s: f64| {
+                    let along = crate::linalg::dot(&point.tangent, direction);
+                    (s, point.unknowns[last], point.tangent[last] / along)
+                };
+                hermite_turn(end(segment.previous().1, a), end(segment.next().1, b))
+            }
+            Located::Zero(_) => None,
+        };
         // Trials are kept off the bracket's ends by a billionth of the segment, not by a
         // fraction of the bracket: a fold 3.7e-7 from a trial, in a bracket still reaching the
         // segment's far end, took a trial 4.5e-5 away at a thousandth of the bracket. A bracket
@@ -175,7 +178,7 @@ impl ResponseEvents {
             // tangent component: on a bracket that short the parameter's change along it is
             // of the order of the corrector's error in it, and the cubic follows that noise
             // (on the ECL beam's upper fold, trials then halved the component each time).
-            let s = match turn.flatten().filter(|_| trial == 0) {
+            let s = match turn.filter(|_| trial == 0) {
                 Some(s) => s,
                 None if fb != fa => (a * fb - b * fa) / (fb - fa),
                 None => 0.5 * (a + b),
