@@ -227,6 +227,48 @@ impl NativeModel {
         })
     }
 
+    /// The internal force `f_int(x) = K x + f_nl(x)` at the displacement `x` (length `n`,
+    /// finite): for checking a model against one's own code.
+    fn internal_force<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let x = self.displacement(x)?;
+        let mut f = vec![0.0; x.len()];
+        self.structure.internal_force(&x, &mut f);
+        Ok(f.into_pyarray(py).into_any())
+    }
+
+    /// The tangent stiffness `K_t(x) = ∂f_int/∂x` at `x`: `(n, indptr, indices, data)` of
+    /// compressed sparse rows on the model's fixed pattern, or a dense 2-D array for a model
+    /// without one.
+    fn tangent_stiffness<'py>(
+        &self,
+        py: Python<'py>,
+        x: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let x = self.displacement(x)?;
+        let n = x.len();
+        if let Some(pattern) = self.structure.tangent_pattern() {
+            let mut values = vec![0.0; pattern.nonzeros()];
+            self.structure.tangent_values(&x, &mut values);
+            return Ok((
+                n,
+                pattern.row_start.clone().into_pyarray(py),
+                pattern.col.clone().into_pyarray(py),
+                values.into_pyarray(py),
+            )
+                .into_pyobject(py)?
+                .into_any());
+        }
+        let mut dense = vec![0.0; n * n];
+        nnm::model::dense_tangent(&self.structure, &x, &mut dense, &mut Vec::new());
+        // Column-major from the library; numpy's default is row-major.
+        let a = Array2::from_shape_fn((n, n), |(i, j)| dense[j * n + i]);
+        Ok(a.into_pyarray(py).into_any())
+    }
+
     /// Linear modes in ascending frequency: a dict of `frequency` (rad/s), `shapes` (one
     /// mass-normalised column per mode), `rigid`, `label` (`"n,d"` or `None`) and `pattern`.
     fn modes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -388,6 +430,22 @@ impl NativeModel {
 }
 
 impl NativeModel {
+    /// A displacement of this model: `n` finite values, or a one-line `ValueError`.
+    fn displacement(&self, x: PyReadonlyArray1<'_, f64>) -> PyResult<Vec<f64>> {
+        let x = x.as_slice()?.to_vec();
+        let n = self.structure.dofs();
+        if x.len() != n {
+            return Err(PyValueError::new_err(format!(
+                "x has {} entries, the model has {n} dofs",
+                x.len()
+            )));
+        }
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            return Err(PyValueError::new_err(format!("x[{i}] is not finite")));
+        }
+        Ok(x)
+    }
+
     /// Follows the branch from `start` without the GIL, handing points to `callback`:
     /// the result dict of `branch_dict` with the stop, the failure (if any) as data, and the
     /// native state a switch at one of its events needs. `describe` adds what the caller

@@ -6,7 +6,7 @@
 use std::ops::Range;
 
 use nnm::model::{
-    BladedDisk, CantileverBeam, Duffing, ModelError, Structure, TwoDof, VonKarmanBeam,
+    BladedDisk, CantileverBeam, Duffing, ModelError, Solid, Structure, TwoDof, VonKarmanBeam,
 };
 use serde::Deserialize;
 use serde::de::{self, DeserializeSeed, EnumAccess, IntoDeserializer, MapAccess, VariantAccess};
@@ -48,7 +48,14 @@ macro_rules! families {
     };
 }
 
-families!(BladedDisk, Duffing, TwoDof, CantileverBeam, VonKarmanBeam);
+families!(
+    BladedDisk,
+    Duffing,
+    TwoDof,
+    CantileverBeam,
+    VonKarmanBeam,
+    Solid
+);
 
 /// The default parameters of `family` (e.g. `"bladed-disk"`) as a TOML table, every key
 /// given (`family` left out): what a job with only `family = "..."` builds. `None` for an

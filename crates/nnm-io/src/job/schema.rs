@@ -22,7 +22,7 @@ pub(super) struct JobFile {
 /// parameters a family takes, their types and defaults are its struct's
 /// (`super::families`); a test checks that this list holds exactly their keys. `damping`
 /// ([`COMMON_KEYS`]) applies to every model.
-pub(super) const MODEL_KEYS: [&str; 22] = [
+pub(super) const MODEL_KEYS: [&str; 26] = [
     "family",
     "sectors",
     "disk_mass",
@@ -39,6 +39,10 @@ pub(super) const MODEL_KEYS: [&str; 22] = [
     "thickness",
     "youngs_modulus",
     "density",
+    "element",
+    "box",
+    "clamped",
+    "poisson_ratio",
     "mass",
     "stiffness",
     "nonlinear",

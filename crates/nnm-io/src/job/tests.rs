@@ -746,7 +746,8 @@ fn family_defaults_are_what_a_bare_family_builds() {
             "duffing",
             "two-dof",
             "cantilever-beam",
-            "von-karman-beam"
+            "von-karman-beam",
+            "solid"
         ]
     );
     for &name in family_names() {
@@ -817,11 +818,11 @@ fn family_parameter_errors_keep_their_place() {
         ),
         (
             "[model]\nfamily = \"duffing\"\ncubc = 3.0",
-            "job.toml:3:1: unknown field `cubc`, expected one of `family`, `sectors`, `disk_mass`, `blade_mass`, `disk_coupling`, `blade_stiffness`, `cubic`, `blade_stiffness_mistuning`, `natural_frequency`, `elements`, `length`, `width`, `height`, `thickness`, `youngs_modulus`, `density`, `mass`, `stiffness`, `nonlinear`, `cyclic`, `fixed_dofs`, `damping`",
+            "job.toml:3:1: unknown field `cubc`, expected one of `family`, `sectors`, `disk_mass`, `blade_mass`, `disk_coupling`, `blade_stiffness`, `cubic`, `blade_stiffness_mistuning`, `natural_frequency`, `elements`, `length`, `width`, `height`, `thickness`, `youngs_modulus`, `density`, `element`, `box`, `clamped`, `poisson_ratio`, `mass`, `stiffness`, `nonlinear`, `cyclic`, `fixed_dofs`, `damping`",
         ),
         (
             "[model]\nfamily = \"bladed\"",
-            "job.toml: unknown model family `bladed` (expected \"bladed-disk\", \"duffing\", \"two-dof\", \"cantilever-beam\", \"von-karman-beam\", or no family with mass and stiffness)",
+            "job.toml: unknown model family `bladed` (expected \"bladed-disk\", \"duffing\", \"two-dof\", \"cantilever-beam\", \"von-karman-beam\", \"solid\", or no family with mass and stiffness)",
         ),
     ];
     for (text, expected) in cases {

@@ -13,7 +13,8 @@ shooting and pseudo-arclength continuation, with Floquet stability and located b
 Models: :class:`Model` (``M``, ``K`` as numpy or scipy.sparse, with :class:`Cubic`,
 :class:`Polynomial`, :class:`Tensor` elements), :meth:`Model.from_job`, and the families
 :func:`bladed_disk`, :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`,
-:func:`von_karman_beam`. Analyses: :func:`modes`, :func:`backbone` (a :class:`Branch`),
+:func:`von_karman_beam`, :func:`solid` (checkable against one's own code through
+:meth:`Model.internal_force` and :meth:`Model.tangent_stiffness`). Analyses: :func:`modes`, :func:`backbone` (a :class:`Branch`),
 :func:`switch` (the family through a branch point or period doubling of a branch).
 Forced, damped responses: :func:`frequency_response` and :func:`force_response` (a
 :class:`Response`) of a model with damping (``Model(..., damping=...)``) driven by a
@@ -36,6 +37,7 @@ from ._model import (
     cantilever_beam,
     duffing,
     modes,
+    solid,
     two_dof,
     von_karman_beam,
 )
@@ -68,6 +70,7 @@ __all__ = [
     "force_response",
     "frequency_response",
     "modes",
+    "solid",
     "sweep",
     "switch",
     "two_dof",

@@ -51,7 +51,8 @@ class Model:
     eigenvalue).
 
     Other constructors: :meth:`from_job` and the families :func:`bladed_disk`,
-    :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`, :func:`von_karman_beam`.
+    :func:`duffing`, :func:`two_dof`, :func:`cantilever_beam`, :func:`von_karman_beam`,
+    :func:`solid`.
     Bad input raises ``ValueError`` or ``TypeError`` with the message ``nnm run`` gives.
     """
 
@@ -181,6 +182,23 @@ class Model:
         """The stiffness matrix as held (see :attr:`M`)."""
         return self._matrix("stiffness")
 
+    def internal_force(self, x: Any) -> Any:
+        """The internal force ``f_int(x) = K x + f_nl(x)`` (a numpy array) at the displacement
+        ``x`` (``dofs`` finite values): to check a model against one's own code."""
+        return self._native.internal_force(_displacement(x))
+
+    def tangent_stiffness(self, x: Any) -> Any:
+        """The tangent stiffness ``K_t(x) = ∂f_int/∂x`` at ``x``: a scipy.sparse CSR array on
+        the model's fixed pattern (every model built from ``M``, ``K`` and elements has one), or
+        a numpy array."""
+        t = self._native.tangent_stiffness(_displacement(x))
+        if isinstance(t, tuple):
+            import scipy.sparse
+
+            n, indptr, indices, data = t
+            return scipy.sparse.csr_array((data, indices, indptr), shape=(n, n))
+        return t
+
     def modes(self) -> "Modes":
         """The linear modes (see :func:`nnm.modes`)."""
         return modes(self)
@@ -193,6 +211,14 @@ class Model:
         cyclic = f", cyclic={self.cyclic}" if self.cyclic else ""
         damped = ", damped" if self._damping is not None else ""
         return f"<nnm.Model {self.family}, {self.dofs} dofs{cyclic}{damped}>"
+
+
+def _displacement(x: Any) -> Any:
+    """``x`` as a one-dimensional float64 array (the native methods check its length)."""
+    array = np.ascontiguousarray(x, dtype=np.float64)
+    if array.ndim != 1:
+        raise ValueError(f"x must be one-dimensional, got shape {array.shape}")
+    return array
 
 
 def _damping_form(damping: Any) -> Any:
@@ -403,6 +429,22 @@ def cantilever_beam(**parameters: Any) -> dict[str, Any]:
     """The ECL cantilever beam of NLvib's example 09: Euler–Bernoulli finite elements
     (deflection and rotation per node, consistent mass), clamped at one end, a cubic spring
     ``cubic`` (N/m^3) from the tip to ground. SI units."""
+    return parameters
+
+
+@_built_in_family("solid")
+def solid(**parameters: Any) -> dict[str, Any]:
+    """A St. Venant–Kirchhoff box ``[0, Lx] × [0, Ly] × [0, Lz]`` (``box``) of triquadratic
+    27-node hexahedra (``element = "hex27"``), ``elements`` along each edge, the faces named in
+    ``clamped`` (``"x0"``, ``"x1"``, ``"y0"``, ... or a list) held; nonlinear force and tangent
+    computed element by element (docs/method.md §20). Node ``i + (2nx+1)(j + (2ny+1)k)`` has
+    dofs ``3·node + c``, the clamped nodes' removed (docs/job-files.md, "Solids"). SI units."""
+    for key in ("box", "elements"):
+        if key in parameters and not isinstance(parameters[key], str):
+            parameters[key] = list(parameters[key])
+    clamped = parameters.get("clamped")
+    if clamped is not None and not isinstance(clamped, str):
+        parameters["clamped"] = list(clamped)
     return parameters
 
 
