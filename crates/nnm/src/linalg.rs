@@ -145,8 +145,11 @@ fn scratch(req: faer::dyn_stack::StackReq) -> faer::dyn_stack::MemBuffer {
 impl SparseLuPattern {
     /// The structure of an `n × n` matrix; `None` if the symbolic analysis fails.
     ///
-    /// Supernodal factorisation up to [`SUPERNODAL_UP_TO`] rows, simplicial above (faer's own
-    /// choice by flop ratio takes simplicial everywhere). Measured on the ECL beam's Radau5
+    /// Supernodal factorisation up to [`SUPERNODAL_UP_TO`] rows; above, faer's own choice by
+    /// the fill's flop ratio, which takes simplicial on every beam (measured up to the
+    /// 10⁴-dof von Kármán beam's 29,988 rows) and supernodal on a solid's three-dimensional
+    /// fill: the 513-dof hex27 box's first 4 points (1,309 factorisations of 1,539 rows)
+    /// 120 s and 1.89 GB simplicial, 49 s and 1.18 GB supernodal. Measured on the ECL beam's Radau5
     /// and Gauss6 stage systems (`3n` rows), whole branches or their first points: 19 elements
     /// (114 rows) 0.53 s supernodal against 0.72 s simplicial; 100 elements (600) 6.58 s
     /// against 6.75 s; 200 elements (1,200) 2.97 against 2.76 s; 400 (2,400) 6.83 against
@@ -156,12 +159,12 @@ impl SparseLuPattern {
         Self::analyse(n, col_ptr, row_idx, n <= SUPERNODAL_UP_TO)
     }
 
-    /// As [`Self::new`], factorised simplicially at every size: for matrices of a model's
-    /// own pattern (the split stage systems, eq. (32f)), whose thin fill forms no supernodes
-    /// worth their dense kernels. Measured on the ECL beam's forced curve with its stage
+    /// As [`Self::new`] without forcing small ones supernodal: for matrices of a model's
+    /// own pattern (the split stage systems, eq. (32f)), whose thin fill on beams forms no
+    /// supernodes worth their dense kernels (faer's choice by flop ratio). Measured on the ECL beam's forced curve with its stage
     /// systems' linear part split: 100 elements (200 rows) 11.9 s simplicial against 18.0 s
     /// supernodal; 19 elements (38 rows) 4.08 against 4.85 s.
-    pub fn simplicial(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Option<Self> {
+    pub fn chosen_by_fill(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Option<Self> {
         Self::analyse(n, col_ptr, row_idx, false)
     }
 
@@ -177,7 +180,7 @@ impl SparseLuPattern {
         let threshold = if supernodal {
             SupernodalThreshold::FORCE_SUPERNODAL
         } else {
-            SupernodalThreshold::FORCE_SIMPLICIAL
+            SupernodalThreshold::AUTO
         };
         let params = lu::LuSymbolicParams {
             supernodal_flop_ratio_threshold: threshold,

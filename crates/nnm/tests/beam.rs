@@ -72,7 +72,7 @@ fn gauss4_gauss6_and_radau5_agree_on_the_beam() {
     assert_same(&gauss6, &first_points(IntegrationMethod::Radau5, 3), 1e-10);
 }
 
-/// A 100-element beam (200 dofs, `ω_max/ω_1 ≈ 10⁵`): under Auto (Radau5 at this size) its
+/// A 100-element beam (200 dofs, `ω_max/ω_1 ≈ 10⁵`): under Auto (Radau9 at this size) its
 /// first points converge, are stable, and their frequencies sit on the linear one (within
 /// the small amplitude's hardening). Gauss6 did not converge on the first point from 70
 /// elements on (aliased unresolved modes, `integrate::SYMPLECTIC_DOFS`).
@@ -107,7 +107,7 @@ fn gauss6_and_dop853_agree_on_the_beam() {
 /// (docs/method.md eq. (33a)) round-off gave `|μ| = 1.0001` and points flagged unstable.
 #[test]
 fn stiff_beam_multipliers_stay_on_the_unit_circle() {
-    // The symplectic scheme (Auto takes Radau5 at this size, whose dissipation moves the
+    // The symplectic scheme (Auto takes Radau9 at this size, whose dissipation moves the
     // multipliers inside the circle by design).
     let branch = branch(50, IntegrationMethod::Gauss6, 3);
     for p in &branch.points {

@@ -388,7 +388,7 @@ fn gauss_monodromy_is_symplectic_on_a_stiff_model() {
 }
 
 /// `Auto` picks the implicit methods for the stiff beam (highest frequency ~4000× the first):
-/// Gauss6 at 38 dofs, Radau5 at 100; the explicit one for the bladed disk (≤ 14×) and Duffing.
+/// Gauss6 at 38 dofs, Radau9 at 100; the explicit one for the bladed disk (≤ 14×) and Duffing.
 #[test]
 fn auto_resolves_by_stiffness() {
     let beam = crate::model::CantileverBeam::default().build().unwrap();
@@ -408,7 +408,7 @@ fn auto_resolves_by_stiffness() {
     .unwrap();
     assert_eq!(
         IntegrationMethod::Auto.resolve(&fine, beam_omega),
-        IntegrationMethod::Radau5
+        IntegrationMethod::Radau9
     );
     assert_eq!(
         IntegrationMethod::Auto.resolve(&disk, 0.18),

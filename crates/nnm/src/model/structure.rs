@@ -139,11 +139,19 @@ struct TangentAssembly {
     /// Per local tangent entry of an element: its position in the values.
     slots: Vec<usize>,
     /// Per local tangent entry of an element: its position in the `p × p` block of the
-    /// nonlinear dofs (column-major, [`MechanicalSystem::nonlinear_tangent`]).
+    /// nonlinear dofs (column-major, [`MechanicalSystem::nonlinear_tangent`]); empty when
+    /// the nonlinearity is not localised (more than [`LOCALISED_DOFS`]).
     block_slots: Vec<usize>,
     /// The elements' tangent at rest on that block.
     block_at_rest: Vec<f64>,
 }
+
+/// The most nonlinear dofs a [`Structure`] declares as localised
+/// ([`MechanicalSystem::nonlinear_dofs`]). Why a bound: the block of those dofs is `p × p`,
+/// and elements over a whole mesh (a von Kármán beam, a solid) touch every dof — 10⁴ dofs
+/// would make it 800 MB, 10⁵ dofs 80 GB; the low-rank stage solves use at most 48 / s of
+/// them anyway (`integrate::collocation`).
+const LOCALISED_DOFS: usize = 256;
 
 /// How an element gives its tangent to the assembly.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -209,6 +217,7 @@ impl TangentAssembly {
         let mut block_slots = Vec::new();
         let mut offsets = Vec::with_capacity(locals.len());
         let p = nonlinear_dofs.len();
+        let localised = p <= LOCALISED_DOFS;
         let in_block = |dof: usize| {
             nonlinear_dofs
                 .binary_search(&dof)
@@ -218,7 +227,9 @@ impl TangentAssembly {
             offsets.push((slots.len(), entries.len(), *kind));
             for &(a, b) in entries {
                 slots.push(pattern.position(a, b).expect("in the pattern"));
-                block_slots.push(in_block(b) * p + in_block(a));
+                if localised {
+                    block_slots.push(in_block(b) * p + in_block(a));
+                }
             }
         }
         let mut assembly = Self {
@@ -229,11 +240,13 @@ impl TangentAssembly {
             block_slots,
             block_at_rest: Vec::new(),
         };
-        let mut at_rest = vec![0.0; p * p];
-        assembly.add_elements(elements, &zero, |entry, v| {
-            at_rest[assembly.block_slots[entry]] += v
-        });
-        assembly.block_at_rest = at_rest;
+        if localised {
+            let mut at_rest = vec![0.0; p * p];
+            assembly.add_elements(elements, &zero, |entry, v| {
+                at_rest[assembly.block_slots[entry]] += v
+            });
+            assembly.block_at_rest = at_rest;
+        }
         Some(assembly)
     }
 
@@ -440,11 +453,11 @@ impl MechanicalSystem for Structure {
         t.add_elements(&self.elements, x, |entry, v| values[t.slots[entry]] += v);
     }
 
-    /// Given with the assembled tangent only (the low-rank stage solves need its pattern).
+    /// Given with the assembled tangent only (the low-rank stage solves need its pattern),
+    /// and when localised ([`LOCALISED_DOFS`]).
     fn nonlinear_dofs(&self) -> Option<&[usize]> {
-        self.tangent
-            .as_ref()
-            .map(|_| self.nonlinear_dofs.as_slice())
+        (self.tangent.is_some() && self.nonlinear_dofs.len() <= LOCALISED_DOFS)
+            .then_some(self.nonlinear_dofs.as_slice())
     }
 
     fn nonlinear_tangent(&self, x: &[f64], out: &mut [f64]) {

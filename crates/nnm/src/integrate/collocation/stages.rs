@@ -96,7 +96,7 @@ impl SparseStages {
             tangent: Arc::new(tangent.clone()),
             // A single stage's system has the model's thin pattern (see `simplicial`).
             lu: if stages == 1 {
-                SparseLuPattern::simplicial(n, col_ptr, row_idx)?
+                SparseLuPattern::chosen_by_fill(n, col_ptr, row_idx)?
             } else {
                 SparseLuPattern::new(stages * n, col_ptr, row_idx)?
             },
