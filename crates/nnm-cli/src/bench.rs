@@ -10,8 +10,8 @@ use nnm::forced::damping::Damping;
 use nnm::forced::{Force, ResponseSettings, Sweep, forced_response};
 use nnm::integrate::IntegrationMethod;
 use nnm::model::{
-    BladedDisk, CantileverBeam, ForcedSystem, MechanicalSystem, Structure, VonKarmanBeam, duffing,
-    two_dof,
+    BladedDisk, CantileverBeam, ForcedSystem, MechanicalSystem, Solid, Structure, VonKarmanBeam,
+    duffing, two_dof,
 };
 use nnm::modes::{add_labelled_mode, find_mode, linear_modes};
 use nnm::shooting::{Formulation, JacobianMethod, Travel};
@@ -556,6 +556,19 @@ pub fn bench(repeat: usize, stiff: bool, large: bool) -> Result<()> {
         let imported = exported_von_karman_beam(&plate)?;
         rows.push(von_karman_resonance_row(case, "imported", &imported)?);
         sizes.push(2);
+        // Issue 31's ladder starts here: the default hex27 box (513 dofs), its first mode to
+        // +5% at default settings (events on, the automatic start), as a user runs it.
+        let solid = Solid::default().build()?;
+        eprintln!("bench: solid box of 10 x 1 x 1 hex27 elements");
+        let mut settings = Settings::default();
+        settings.limits.frequency_shift_max = 0.05;
+        rows.extend(variant_rows(
+            "solid box 10x1x1 hex27 (513 dofs) to +5%",
+            &solid,
+            &start_at(&solid, "0", None)?,
+            &[("default", settings)],
+        )?);
+        sizes.push(1);
     }
     println!(
         "{:<38} {:<12} {:>10} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>8} {:>9} {:>7}",

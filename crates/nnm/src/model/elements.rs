@@ -261,3 +261,13 @@ mod tests {
         }
     }
 }
+
+/// Adds an element's local vector to the global one: local entry `a` to `global[dofs[a]]`,
+/// nothing where the local dof is clamped (`None`). The finite elements' force assembly.
+pub(super) fn add_local(dofs: &[Option<usize>], local: &[f64], global: &mut [f64]) {
+    for (d, v) in dofs.iter().zip(local) {
+        if let Some(i) = *d {
+            global[i] += v;
+        }
+    }
+}

@@ -16,6 +16,8 @@
 
 mod beams;
 mod block;
+#[cfg(test)]
+pub(crate) mod checks;
 mod constraints;
 mod elements;
 mod explicit;

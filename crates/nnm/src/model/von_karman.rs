@@ -260,11 +260,7 @@ impl VonKarmanElement {
 impl NonlinearElement for VonKarmanElement {
     fn add_force(&self, x: &[f64], f: &mut [f64]) {
         let local = self.local_force(&self.local(x));
-        for (d, v) in self.dofs.iter().zip(local) {
-            if let Some(i) = *d {
-                f[i] += v;
-            }
-        }
+        crate::model::elements::add_local(&self.dofs, &local, f);
     }
 
     fn add_tangent_product(&self, x: &[f64], dx: Block<'_>, out: &mut BlockMut<'_>) {
@@ -788,47 +784,11 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 11) as f64 / (1u64 << 52) as f64 - 1.0
         };
-        let eye: Vec<f64> = (0..n * n)
-            .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
-            .collect();
         for _ in 0..5 {
             let x: Vec<f64> = (0..n)
                 .map(|i| [1e-4, 1e-2, 3e-2][i % 3] * random())
                 .collect();
-            let (mut f, mut g) = (vec![0.0; n], vec![0.0; n]);
-            s.nonlinear_force(&x, &mut f);
-            tensor.add_force(&x, &mut g);
-            let scale = max_abs(&f);
-            for i in 0..n {
-                assert!(
-                    (f[i] - g[i]).abs() < 1e-12 * scale,
-                    "dof {i}: {} vs {}",
-                    f[i],
-                    g[i]
-                );
-            }
-            let (mut kt, mut kg) = (vec![0.0; n * n], vec![0.0; n * n]);
-            for e in s.elements() {
-                e.add_tangent_product(
-                    &x,
-                    Block::new(&eye, n, n, n),
-                    &mut BlockMut::new(&mut kt, n, n, n),
-                );
-            }
-            tensor.add_tangent_product(
-                &x,
-                Block::new(&eye, n, n, n),
-                &mut BlockMut::new(&mut kg, n, n, n),
-            );
-            let scale = max_abs(&kt);
-            for (k, (a, b)) in kt.iter().zip(&kg).enumerate() {
-                assert!(
-                    (a - b).abs() < 1e-12 * scale,
-                    "({}, {}): {a} vs {b}",
-                    k % n,
-                    k / n
-                );
-            }
+            crate::model::checks::assert_tensor_gives_the_elements(&s, &tensor, &x);
         }
     }
 

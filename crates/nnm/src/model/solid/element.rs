@@ -274,11 +274,7 @@ thread_local! {
 impl NonlinearElement for SolidElement {
     fn add_force(&self, x: &[f64], f: &mut [f64]) {
         let local = self.local_force(&self.local(x));
-        for (d, v) in self.dofs.iter().zip(local) {
-            if let Some(i) = *d {
-                f[i] += v;
-            }
-        }
+        crate::model::elements::add_local(&self.dofs, &local, f);
     }
 
     fn add_tangent_product(&self, x: &[f64], dx: Block<'_>, out: &mut BlockMut<'_>) {

@@ -4,7 +4,7 @@ use super::assembly::Body;
 use super::element::Geometry;
 use super::*;
 use crate::MechanicalSystem;
-use crate::model::{Block, BlockMut, NonlinearElement, PolynomialTerms};
+use crate::model::{Block, BlockMut, PolynomialTerms};
 use crate::modes::{linear_modes, lowest_modes};
 
 fn max_abs(v: &[f64]) -> f64 {
@@ -399,45 +399,9 @@ fn global_tensors_give_the_elements_force_and_tangent() {
         terms.append(e.polynomial_terms().expect("a polynomial element"));
     }
     let tensor = terms.summed().into_tensor(n).expect("a gradient");
-    let eye: Vec<f64> = (0..n * n)
-        .map(|k| if k % (n + 1) == 0 { 1.0 } else { 0.0 })
-        .collect();
     for seed in [1u64, 2, 3] {
         let x = large_state(n, 0x1234_5678 * seed);
-        let (mut f, mut g) = (vec![0.0; n], vec![0.0; n]);
-        s.nonlinear_force(&x, &mut f);
-        tensor.add_force(&x, &mut g);
-        let scale = max_abs(&f);
-        for i in 0..n {
-            assert!(
-                (f[i] - g[i]).abs() < 1e-12 * scale,
-                "dof {i}: {} vs {}",
-                f[i],
-                g[i]
-            );
-        }
-        let (mut kt, mut kg) = (vec![0.0; n * n], vec![0.0; n * n]);
-        for e in s.elements() {
-            e.add_tangent_product(
-                &x,
-                Block::new(&eye, n, n, n),
-                &mut BlockMut::new(&mut kt, n, n, n),
-            );
-        }
-        tensor.add_tangent_product(
-            &x,
-            Block::new(&eye, n, n, n),
-            &mut BlockMut::new(&mut kg, n, n, n),
-        );
-        let scale = max_abs(&kt);
-        for (k, (a, b)) in kt.iter().zip(&kg).enumerate() {
-            assert!(
-                (a - b).abs() < 1e-12 * scale,
-                "({}, {}): {a} vs {b}",
-                k % n,
-                k / n
-            );
-        }
+        crate::model::checks::assert_tensor_gives_the_elements(&s, &tensor, &x);
     }
 }
 
