@@ -169,6 +169,16 @@ impl NonlinearElement for PolynomialSpring {
     }
 }
 
+/// Adds an element's local vector to the global one: local entry `a` to `global[dofs[a]]`,
+/// nothing where the local dof is clamped (`None`). The finite elements' force assembly.
+pub(super) fn add_local(dofs: &[Option<usize>], local: &[f64], global: &mut [f64]) {
+    for (d, v) in dofs.iter().zip(local) {
+        if let Some(i) = *d {
+            global[i] += v;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -258,16 +268,6 @@ mod tests {
                     assert_eq!(entry, out[row], "p={p}");
                 }
             }
-        }
-    }
-}
-
-/// Adds an element's local vector to the global one: local entry `a` to `global[dofs[a]]`,
-/// nothing where the local dof is clamped (`None`). The finite elements' force assembly.
-pub(super) fn add_local(dofs: &[Option<usize>], local: &[f64], global: &mut [f64]) {
-    for (d, v) in dofs.iter().zip(local) {
-        if let Some(i) = *d {
-            global[i] += v;
         }
     }
 }
