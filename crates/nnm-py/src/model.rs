@@ -208,17 +208,7 @@ impl NativeModel {
             _ => return Err(PyValueError::new_err(format!("no matrix `{name}`"))),
         };
         Ok(match m {
-            Matrix::Sparse(s) => {
-                let p = s.pattern();
-                (
-                    s.dimension(),
-                    p.row_start.clone().into_pyarray(py),
-                    p.col.clone().into_pyarray(py),
-                    s.values().to_vec().into_pyarray(py),
-                )
-                    .into_pyobject(py)?
-                    .into_any()
-            }
+            Matrix::Sparse(s) => compressed_rows(py, s.pattern(), s.values().to_vec())?,
             Matrix::Dense(_) => {
                 let n = m.nrows();
                 let a = Array2::from_shape_fn((n, n), |(i, j)| m.get(i, j));
@@ -253,14 +243,7 @@ impl NativeModel {
         if let Some(pattern) = self.structure.tangent_pattern() {
             let mut values = vec![0.0; pattern.nonzeros()];
             self.structure.tangent_values(&x, &mut values);
-            return Ok((
-                n,
-                pattern.row_start.clone().into_pyarray(py),
-                pattern.col.clone().into_pyarray(py),
-                values.into_pyarray(py),
-            )
-                .into_pyobject(py)?
-                .into_any());
+            return compressed_rows(py, pattern, values);
         }
         let mut dense = vec![0.0; n * n];
         nnm::model::dense_tangent(&self.structure, &x, &mut dense, &mut Vec::new());
@@ -597,4 +580,21 @@ pub fn family_defaults<'py>(py: Python<'py>, family: &str) -> PyResult<Bound<'py
         dict.set_item(name, convert::from_toml(py, &table[*name])?)?;
     }
     Ok(dict)
+}
+
+/// `(n, indptr, indices, data)` of a square matrix in compressed sparse rows, `values` on
+/// `pattern`: what the Python side turns into a scipy CSR array (`_model._scipy_or_dense`).
+fn compressed_rows<'py>(
+    py: Python<'py>,
+    pattern: &nnm::model::SparsityPattern,
+    values: Vec<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    Ok((
+        pattern.row_start.len() - 1,
+        pattern.row_start.clone().into_pyarray(py),
+        pattern.col.clone().into_pyarray(py),
+        values.into_pyarray(py),
+    )
+        .into_pyobject(py)?
+        .into_any())
 }

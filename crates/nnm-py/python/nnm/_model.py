@@ -164,13 +164,7 @@ class Model:
         return self._native.branch_names
 
     def _matrix(self, name: str) -> Any:
-        m = self._native.matrix(name)
-        if isinstance(m, tuple):
-            import scipy.sparse
-
-            n, indptr, indices, data = m
-            return scipy.sparse.csr_array((data, indices, indptr), shape=(n, n))
-        return m
+        return _scipy_or_dense(self._native.matrix(name))
 
     @property
     def M(self) -> Any:
@@ -191,13 +185,7 @@ class Model:
         """The tangent stiffness ``K_t(x) = ∂f_int/∂x`` at ``x``: a scipy.sparse CSR array on
         the model's fixed pattern (every model built from ``M``, ``K`` and elements has one), or
         a numpy array."""
-        t = self._native.tangent_stiffness(_displacement(x))
-        if isinstance(t, tuple):
-            import scipy.sparse
-
-            n, indptr, indices, data = t
-            return scipy.sparse.csr_array((data, indices, indptr), shape=(n, n))
-        return t
+        return _scipy_or_dense(self._native.tangent_stiffness(_displacement(x)))
 
     def modes(self) -> "Modes":
         """The linear modes (see :func:`nnm.modes`)."""
@@ -211,6 +199,17 @@ class Model:
         cyclic = f", cyclic={self.cyclic}" if self.cyclic else ""
         damped = ", damped" if self._damping is not None else ""
         return f"<nnm.Model {self.family}, {self.dofs} dofs{cyclic}{damped}>"
+
+
+def _scipy_or_dense(m: Any) -> Any:
+    """A native matrix as Python has it: ``(n, indptr, indices, data)`` of compressed sparse rows
+    becomes a scipy.sparse CSR array, a dense array stays as it is."""
+    if isinstance(m, tuple):
+        import scipy.sparse
+
+        n, indptr, indices, data = m
+        return scipy.sparse.csr_array((data, indices, indptr), shape=(n, n))
+    return m
 
 
 def _displacement(x: Any) -> Any:

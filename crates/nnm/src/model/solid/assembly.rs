@@ -77,11 +77,11 @@ impl Body {
                     }
                 }
             }
-            elements.push(Box::new(SolidElement {
+            elements.push(Box::new(SolidElement::new(
                 dofs,
-                geometry: Arc::clone(geometry),
-                material: self.material,
-            }));
+                Arc::clone(geometry),
+                self.material,
+            )));
         }
         let sparse = |t: &[(usize, usize, f64)]| {
             SparseMatrix::from_triplets(n, t).map_err(ModelError::InvalidParameter)

@@ -162,12 +162,30 @@ fn invert(a: &Tensor) -> (f64, Tensor) {
 /// material.
 #[derive(Debug)]
 pub(super) struct SolidElement {
-    pub dofs: Vec<Option<usize>>,
-    pub geometry: Arc<Geometry>,
-    pub material: StVenantKirchhoff,
+    dofs: Vec<Option<usize>>,
+    /// The local dofs that are not clamped, ascending: the rows and columns of
+    /// [`NonlinearElement::tangent_matrix`] (kept, since it is called for every element at
+    /// every tangent evaluation).
+    free: Vec<usize>,
+    geometry: Arc<Geometry>,
+    material: StVenantKirchhoff,
 }
 
 impl SolidElement {
+    pub fn new(
+        dofs: Vec<Option<usize>>,
+        geometry: Arc<Geometry>,
+        material: StVenantKirchhoff,
+    ) -> Self {
+        let free = (0..dofs.len()).filter(|&a| dofs[a].is_some()).collect();
+        Self {
+            dofs,
+            free,
+            geometry,
+            material,
+        }
+    }
+
     /// The local displacements (zero at clamped dofs).
     fn local(&self, x: &[f64]) -> [f64; MAX_DOFS] {
         let mut q = [0.0; MAX_DOFS];
@@ -299,11 +317,10 @@ impl NonlinearElement for SolidElement {
         TANGENT.with_borrow_mut(|k| {
             k.resize(m * m, 0.0);
             self.local_tangent(&self.local(x), k);
-            // Symmetric: the used rows of the used columns, in either order.
-            let used: Vec<usize> = (0..m).filter(|&a| self.dofs[a].is_some()).collect();
-            let u = used.len();
-            for (jb, &b) in used.iter().enumerate() {
-                for (ia, &a) in used.iter().enumerate() {
+            // Symmetric: the free rows of the free columns, in either order.
+            let u = self.free.len();
+            for (jb, &b) in self.free.iter().enumerate() {
+                for (ia, &a) in self.free.iter().enumerate() {
                     out[jb * u + ia] = k[a * m + b];
                 }
             }
