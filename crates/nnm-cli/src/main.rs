@@ -13,6 +13,7 @@ mod progress;
 mod response;
 mod run;
 mod study;
+mod vtk;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -55,6 +56,11 @@ enum Command {
         /// Print errors only: no progress, and the summary only when a branch did not finish.
         #[arg(long, short)]
         quiet: bool,
+        /// Also write ParaView files (beams and solids): DIR/vtk/modes.pvd (the linear mode
+        /// shapes) and DIR/vtk/<branch>-<point>.pvd (a period's motion in 32 frames) for the
+        /// POINTS of each branch: first, last, all, or indices such as 0,10,-1.
+        #[arg(long, value_name = "POINTS", num_args = 0..=1, default_missing_value = "first,last")]
+        vtk: Option<vtk::VtkPoints>,
     },
     /// Write a job's model as a finite-element code exports it: DIR/M.mtx and K.mtx (Matrix
     /// Market), f2.txt and f3.txt (quadratic and cubic force terms) and DIR/<job>.toml, which
@@ -196,10 +202,11 @@ fn execute(cli: Cli) -> Result<()> {
             out,
             threads,
             quiet,
+            vtk,
         } => {
             // The forced responses' progress asks the switch (`say!`); branches carry it.
             progress::set_quiet(quiet);
-            run::run_job(&job, &out, threads, quiet)
+            run::run_job(&job, &out, threads, quiet, vtk.as_ref())
         }
         Command::Export { job, out } => export::export(&job, &out),
         Command::Study {
@@ -252,7 +259,7 @@ fn execute(cli: Cli) -> Result<()> {
                 };
                 study::bladed_disk_study(&job, &args.out, &options)
             } else {
-                run::run_job(&job, &args.out, None, args.quiet)
+                run::run_job(&job, &args.out, None, args.quiet, None)
             }
         }
     }

@@ -14,14 +14,26 @@ use crate::compute::{NotStarted, Outcome, compute_all, failures, print_summary, 
 use crate::exit::Unfinished;
 use crate::fep;
 use crate::out_dir::{OutDir, foreign_branches};
+use crate::progress::say;
 use crate::response;
+use crate::vtk::VtkPoints;
 
 /// Computes every branch and response curve of the job file `job_path` into `out`
 /// (docs/output.md), on `threads` worker threads (default one per core): branches side by
 /// side, the curves one after another, a large model's split stage solves on the same
 /// threads.
-pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool) -> Result<()> {
+pub fn run_job(
+    job_path: &Path,
+    out: &Path,
+    threads: Option<usize>,
+    quiet: bool,
+    vtk: Option<&VtkPoints>,
+) -> Result<()> {
     let job = load_job(job_path)?;
+    let layout = match vtk {
+        Some(_) => Some(crate::vtk::check_layout(job.layout.as_ref())?),
+        None => None,
+    };
     if job.branches.is_empty() && job.responses.is_empty() {
         bail!(
             "{}: the job has no [[branch]] or [[response]] to compute",
@@ -56,6 +68,14 @@ pub fn run_job(job_path: &Path, out: &Path, threads: Option<usize>, quiet: bool)
         }
         _ => Vec::new(),
     };
+    if let (Some(points), Some(layout)) = (vtk, layout) {
+        let written = crate::vtk::write(&job.structure, layout, &modes, &outcomes, points, out)?;
+        say!(
+            "ParaView: {} collections (.pvd) in {}",
+            written.len(),
+            out.join("vtk").display()
+        );
+    }
     let early = stopped_early(&outcomes);
     let verdict = unfinished(&outcomes, &early).and(curves_verdict(&curves));
     // Quiet means errors only: nothing on a successful run. When a branch failed, stopped

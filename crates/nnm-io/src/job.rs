@@ -59,7 +59,7 @@ pub use branch::{
 pub use elements::{Element, spring};
 pub use families::{Family, family_defaults, family_names, family_parameter_names};
 pub use load::{MAX_BRANCH_NAME, load_job, load_job_with, parse_job};
-pub use model::{general_model, model_from_table};
+pub use model::{BuiltModel, general_model, model_from_table};
 pub use response::{
     AMPLITUDE_START_RATIO, ForceForm, RESPONSE_KEYS, RESPONSE_SETTINGS_KEYS, ResponseBody,
     ResponseJob, damping_matrix, force_shape, given_damping_matrix, response_body,
@@ -109,6 +109,8 @@ pub struct Job {
     pub fixed_dofs: Option<nnm::model::FixedDofs>,
     /// The forced responses (`[[response]]`), in the order of the file.
     pub responses: Vec<ResponseJob>,
+    /// Where the model's dofs sit in space (beams and solids), for ParaView output.
+    pub layout: Option<nnm::model::Layout>,
 }
 
 /// One branch to compute.

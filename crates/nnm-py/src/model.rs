@@ -6,14 +6,14 @@
 use std::path::PathBuf;
 
 use nnm::bifurcation::{Event, SwitchError};
-use nnm::model::{CyclicSymmetry, FixedDofs, Matrix, Structure};
+use nnm::model::{CyclicSymmetry, FixedDofs, Layout, Matrix, Structure};
 use nnm::modes::{LinearMode, linear_modes};
 use nnm::{Branch, MechanicalSystem, Start, StopReason};
 use nnm_io::job::{BranchBody, BranchJob, DampingSpec};
 use nnm_io::output::columns::BranchContext;
 use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyReadonlyArray1};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::exceptions::{PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -27,6 +27,8 @@ use crate::results::{branch_dict, modes_dict, stop_kind, wave_name};
 pub struct NativeModel {
     pub(crate) structure: Structure,
     family: String,
+    /// Where the dofs sit in space (beams and solids): what `to_vtk` draws on.
+    layout: Option<Layout>,
     /// The `[[branch]]` entries of the job file (empty for other models).
     branches: Vec<BranchJob>,
     /// The dofs removed from the model given (`fixed_dofs`): a damping matrix is given in the
@@ -58,11 +60,12 @@ impl NativeModel {
     #[staticmethod]
     fn from_table(py: Python<'_>, table: &Bound<'_, PyDict>) -> PyResult<Self> {
         let table = table_from_dict(table)?;
-        let (structure, family) =
+        let built =
             py.detach(|| no_panic(|| nnm_io::job::model_from_table(table).map_err(input_error)))?;
         Ok(Self {
-            structure,
-            family,
+            structure: built.structure,
+            family: built.family,
+            layout: built.layout,
             branches: Vec::new(),
             fixed: None,
             job_damping: None,
@@ -93,6 +96,7 @@ impl NativeModel {
         Ok(Self {
             structure: job.structure,
             family: job.family,
+            layout: job.layout,
             branches: job.branches,
             fixed: job.fixed_dofs,
             job_damping: job.damping_spec.zip(job.damping),
@@ -137,6 +141,7 @@ impl NativeModel {
         Ok(Self {
             structure,
             family: "general".into(),
+            layout: None,
             branches: Vec::new(),
             fixed,
             job_damping: None,
@@ -179,6 +184,50 @@ impl NativeModel {
                 matrix: matrix.clone(),
             },
         )))
+    }
+
+    /// Whether the model's dofs sit on nodes (beams, solids): what `write_vtk` needs.
+    #[getter]
+    fn has_layout(&self) -> bool {
+        self.layout.is_some()
+    }
+
+    /// Writes the frames (`times`, and displacements `x`, frames × n) of a motion as ParaView
+    /// files: `path` (`.pvd`) and its folder of `.vtu` frames (`nnm_io::vtk::write_motion`).
+    /// An I/O failure is an `OSError`.
+    fn write_vtk(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        times: Vec<f64>,
+        x: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<()> {
+        let Some(layout) = &self.layout else {
+            return Err(PyValueError::new_err(
+                "to_vtk draws on a model's nodes: the beam and solid families have them, this model does not",
+            ));
+        };
+        let x = x.as_array();
+        let n = self.structure.dofs();
+        if x.ncols() != n || x.nrows() != times.len() {
+            return Err(PyValueError::new_err(format!(
+                "write_vtk needs one row of {n} displacements per time, got {}x{} for {} times",
+                x.nrows(),
+                x.ncols(),
+                times.len()
+            )));
+        }
+        let frames: Vec<(f64, Vec<f64>)> = times
+            .into_iter()
+            .zip(x.rows())
+            .map(|(t, row)| (t, row.to_vec()))
+            .collect();
+        py.detach(|| {
+            no_panic(|| {
+                nnm_io::vtk::write_motion(&path, layout, &frames)
+                    .map_err(|e| PyOSError::new_err(e.to_string()))
+            })
+        })
     }
 
     /// The names of the job file's branches.
@@ -577,7 +626,11 @@ pub fn family_defaults<'py>(py: Python<'py>, family: &str) -> PyResult<Bound<'py
     let names = nnm_io::job::family_parameter_names(family).ok_or_else(unknown)?;
     let dict = PyDict::new(py);
     for name in names {
-        dict.set_item(name, convert::from_toml(py, &table[*name])?)?;
+        // A key without a default (a solid's `mesh`) is optional: None.
+        match table.get(*name) {
+            Some(value) => dict.set_item(name, convert::from_toml(py, value)?)?,
+            None => dict.set_item(name, py.None())?,
+        }
     }
     Ok(dict)
 }

@@ -14,13 +14,19 @@ pub use regime::{
 
 use std::f64::consts::PI;
 
-use crate::integrate::{DOP853, IntegrationError, Integrator, RungeKutta, Steps, Tolerances};
+use crate::integrate::{
+    DOP853, IntegrationError, IntegrationMethod, Integrator, RungeKutta, Steps, Tolerances,
+};
 use crate::linalg;
 use crate::model::{MechanicalSystem, Structure};
 
 /// The motion over one period, sampled at `t_k = k T / samples`, `k = 0..=samples` (the last
-/// sample closes the orbit). Each segment is integrated adaptively to relative tolerance
-/// `tolerance`, so sampling does not cost accuracy.
+/// sample closes the orbit), to relative `tolerance`. A non-stiff system is integrated by
+/// DOP853, each segment adaptively, so sampling does not cost accuracy; a stiff one
+/// ([`IntegrationMethod::resolve`]: a finite-element beam or solid, whose explicit steps the
+/// highest frequency would hold to nanoseconds) by the collocation method a branch of it
+/// uses, on equal steps: as many as an integration of the whole period chooses, rounded up
+/// to a multiple of `samples`.
 pub fn sample_motion<S: MechanicalSystem + ?Sized>(
     system: &S,
     z0: &[f64],
@@ -29,16 +35,27 @@ pub fn sample_motion<S: MechanicalSystem + ?Sized>(
     tolerance: f64,
 ) -> Result<Vec<Vec<f64>>, IntegrationError> {
     let scale = z0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let mut integrator = RungeKutta::new(
-        system,
-        &DOP853,
-        Tolerances {
-            relative: tolerance,
-            absolute: tolerance * scale.max(f64::MIN_POSITIVE),
-            velocity_scale: 1.0,
-        },
-    );
-    let dt = period / samples.max(1) as f64;
+    let tolerances = Tolerances {
+        relative: tolerance,
+        absolute: tolerance * scale.max(f64::MIN_POSITIVE),
+        velocity_scale: 1.0,
+    };
+    let samples = samples.max(1);
+    let method = IntegrationMethod::Auto.resolve(system, 2.0 * PI / period);
+    if method.is_collocation() {
+        let mut integrator = method.integrator(system, tolerances);
+        let whole = integrator.flow(z0, period, None, Steps::Adaptive { first_step: None })?;
+        let per_sample = whole.steps.len().div_ceil(samples).max(1);
+        let division = vec![period / (samples * per_sample) as f64; per_sample];
+        let (_, sampled) =
+            integrator.flow_sampled(z0, period, samples, Steps::Replay(&division))?;
+        let mut states = Vec::with_capacity(samples + 1);
+        states.push(z0.to_vec());
+        states.extend(sampled);
+        return Ok(states);
+    }
+    let mut integrator = RungeKutta::new(system, &DOP853, tolerances);
+    let dt = period / samples as f64;
     let mut states = Vec::with_capacity(samples + 1);
     states.push(z0.to_vec());
     let mut first_step = None;

@@ -6,7 +6,8 @@
 use std::ops::Range;
 
 use nnm::model::{
-    BladedDisk, CantileverBeam, Duffing, ModelError, Solid, Structure, TwoDof, VonKarmanBeam,
+    BladedDisk, CantileverBeam, Duffing, Layout, ModelError, Solid, Structure, TwoDof,
+    VonKarmanBeam,
 };
 use serde::Deserialize;
 use serde::de::{self, DeserializeSeed, EnumAccess, IntoDeserializer, MapAccess, VariantAccess};
@@ -34,6 +35,17 @@ macro_rules! families {
             pub fn build(&self) -> Result<Structure, ModelError> {
                 match self {
                     $(Family::$variant(p) => p.build(),)*
+                }
+            }
+
+            /// Where the model's dofs sit in space (beams and structured solid boxes; a
+            /// solid on a mesh file gets its layout where the file is read).
+            pub fn layout(&self) -> Option<Layout> {
+                match self {
+                    Family::CantileverBeam(p) => Some(p.layout()),
+                    Family::VonKarmanBeam(p) => Some(p.layout()),
+                    Family::Solid(p) if p.mesh.is_none() => p.layout().ok(),
+                    _ => None,
                 }
             }
 

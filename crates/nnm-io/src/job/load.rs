@@ -8,7 +8,7 @@ use nnm::MechanicalSystem;
 
 use super::branch::{BranchBody, branch_body, settings_from};
 use super::families::Family;
-use super::model::{SpecError, build_model, typed_family};
+use super::model::{BuiltModel, SpecError, build_model, typed_family};
 use super::response::{ResponseJob, damping_matrix, response_body};
 use super::schema::{EventStart, JobFile, from_table};
 use super::{BranchJob, Job, JobError};
@@ -134,7 +134,11 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
         message,
     };
     let base = path.parent().unwrap_or(Path::new("."));
-    let (structure, family) = build_model(&file.model, family.as_ref(), base, path)?;
+    let BuiltModel {
+        structure,
+        family,
+        layout,
+    } = build_model(&file.model, family.as_ref(), base, path)?;
 
     let defaults: toml::Table = file.settings.unwrap_or_default();
     let default_settings =
@@ -244,6 +248,7 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
         damping_spec: file.model.damping,
         fixed_dofs: fixed,
         responses,
+        layout,
     })
 }
 

@@ -6,13 +6,16 @@
 use std::ops::Range;
 use std::path::Path;
 
-use nnm::model::{CyclicSymmetry, FixedDofs, Matrix, ModelError, NonlinearElement, Structure};
+use nnm::model::{
+    CyclicSymmetry, FixedDofs, Layout, Matrix, ModelError, NonlinearElement, Solid, Structure,
+};
 
 use super::JobError;
 use super::elements::{Element, build_element};
 use super::families::{Family, FamilyError, family_keys, parse};
 use super::matrices::load_matrix;
 use super::schema::{COMMON_KEYS, GENERAL_KEYS, MODEL_KEYS, ModelSpec, from_table};
+use crate::gmsh::read_mesh;
 
 /// Why `[model]` was refused before anything was built.
 #[derive(Debug)]
@@ -76,6 +79,19 @@ fn value_error(e: FamilyError) -> SpecError {
     }
 }
 
+/// A model as a job describes it: the structure, the family's name (`"general"` for none),
+/// and where its dofs sit in space when the family has a mesh (beams and solids).
+#[derive(Debug)]
+pub struct BuiltModel {
+    /// The structure.
+    pub structure: Structure,
+    /// The family (`"bladed-disk"`, ..., or `"general"`).
+    pub family: String,
+    /// The points, cells and dofs a viewer draws (`None`: a family without geometry, or a
+    /// general model).
+    pub layout: Option<Layout>,
+}
+
 /// The model of `spec`, whose family [`typed_family`] gave. Matrix and term files are
 /// found relative to `base`; `path` names the job in errors.
 pub(super) fn build_model(
@@ -83,7 +99,7 @@ pub(super) fn build_model(
     family: Option<&Family>,
     base: &Path,
     path: &Path,
-) -> Result<(Structure, String), JobError> {
+) -> Result<BuiltModel, JobError> {
     let invalid = |message: String| JobError::Invalid {
         path: path.to_owned(),
         message,
@@ -93,8 +109,22 @@ pub(super) fn build_model(
         error,
     };
     let name = spec.family.clone().unwrap_or_else(|| "general".into());
+    if let Some(Family::Solid(solid)) = family
+        && let Some(mesh) = &solid.mesh
+    {
+        let (structure, layout) = solid_on_mesh(spec, solid, &mesh.file, base, path)?;
+        return Ok(BuiltModel {
+            structure,
+            family: name,
+            layout: Some(layout),
+        });
+    }
     if let Some(family) = family {
-        return Ok((family.build().map_err(model_error)?, name));
+        return Ok(BuiltModel {
+            structure: family.build().map_err(model_error)?,
+            family: name,
+            layout: family.layout(),
+        });
     }
     let mass = spec
         .mass
@@ -126,14 +156,18 @@ pub(super) fn build_model(
         cyclic,
     )
     .map_err(model_error)?;
-    Ok((structure, name))
+    Ok(BuiltModel {
+        structure,
+        family: name,
+        layout: None,
+    })
 }
 
 /// A model from a `[model]` table that names no files (a family and its parameters, or
 /// matrices as rows), with the job file's keys, defaults and messages: for front ends that
 /// take a model from elsewhere than a job file (the Python bindings' keyword arguments).
 /// Messages are those of a job file without the file's name.
-pub fn model_from_table(table: toml::Table) -> Result<(Structure, String), String> {
+pub fn model_from_table(table: toml::Table) -> Result<BuiltModel, String> {
     let spec: ModelSpec =
         from_table(&table).map_err(|e: toml::de::Error| e.message().trim().to_string())?;
     let family = typed_family(&spec, None).map_err(|e| match e {
@@ -144,6 +178,39 @@ pub fn model_from_table(table: toml::Table) -> Result<(Structure, String), Strin
         JobError::Invalid { message, .. } => message,
         JobError::Model { error, .. } => error.to_string(),
         other => other.to_string(),
+    })
+}
+
+/// A solid on the Gmsh mesh `file` (relative to `base`): the box's keys refused, `clamped`
+/// (the physical groups held) required, before the file is read.
+fn solid_on_mesh(
+    spec: &ModelSpec,
+    solid: &Solid,
+    file: &str,
+    base: &Path,
+    path: &Path,
+) -> Result<(Structure, Layout), JobError> {
+    let invalid = |message: String| JobError::Invalid {
+        path: path.to_owned(),
+        message,
+    };
+    if let Some(key) = ["box", "elements", "element"]
+        .iter()
+        .find(|k| spec.gives(k))
+    {
+        return Err(invalid(format!(
+            "[model] key `{key}` describes a structured box: it does not apply with `mesh` (the mesh gives the elements)"
+        )));
+    }
+    if !spec.gives("clamped") {
+        return Err(invalid(
+            "a solid on a mesh needs `clamped`: the physical groups whose nodes are held (`[]` for a free body)".into(),
+        ));
+    }
+    let mesh = read_mesh(&base.join(file)).map_err(|e| invalid(e.to_string()))?;
+    solid.model_on_mesh(&mesh).map_err(|error| JobError::Model {
+        path: path.to_owned(),
+        error,
     })
 }
 

@@ -22,7 +22,7 @@ pub(super) struct JobFile {
 /// parameters a family takes, their types and defaults are its struct's
 /// (`super::families`); a test checks that this list holds exactly their keys. `damping`
 /// ([`COMMON_KEYS`]) applies to every model.
-pub(super) const MODEL_KEYS: [&str; 26] = [
+pub(super) const MODEL_KEYS: [&str; 27] = [
     "family",
     "sectors",
     "disk_mass",
@@ -43,6 +43,7 @@ pub(super) const MODEL_KEYS: [&str; 26] = [
     "box",
     "clamped",
     "poisson_ratio",
+    "mesh",
     "mass",
     "stiffness",
     "nonlinear",

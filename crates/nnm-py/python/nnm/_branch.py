@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, NamedTuple
 
@@ -199,9 +200,10 @@ class Branch:
         return self.state0[:, : self.state0.shape[1] // 2]
 
     def motion(self, i: int, samples: int = 100, tolerance: float = 1e-10) -> Motion:
-        """The motion of point ``i`` over one period, at ``samples + 1`` equal times, each
-        segment integrated adaptively to relative ``tolerance`` (so sampling costs no
-        accuracy).
+        """The motion of point ``i`` over one period, at ``samples + 1`` equal times, to
+        relative ``tolerance``: each segment integrated adaptively, or, for a stiff model (a
+        finite-element beam or solid), by the collocation method its branches use, on the
+        equal steps an integration of the period chooses (so sampling costs no accuracy).
 
         ``i`` counts as the per-point arrays do (``-1`` is the last point, as in
         ``branch.energy[-1]``); ``samples`` is at least 1 and at most what fits in half the
@@ -220,6 +222,34 @@ class Branch:
         n = self.model.dofs
         t = np.linspace(0.0, self.period[i], z.shape[0])
         return Motion(t, z[:, :n], z[:, n:])
+
+    def to_vtk(self, i: int, path: str | os.PathLike, frames: int = 32) -> None:
+        """ParaView files of point ``i``'s motion over one period in ``frames`` frames:
+        ``path`` (a ``.pvd`` collection whose time steps are the frames' times) and the
+        frames ``frame-NNN.vtu`` in the folder of that name without ``.pvd``, each with the
+        point data ``displacement`` (in ParaView: open the ``.pvd``, then "Warp By Vector").
+
+        For models whose dofs sit on nodes (the beam and solid families). ``i`` counts as
+        :meth:`motion`'s does. A model without nodes, a bad index, ``frames`` below 1 or a
+        ``path`` not ending in ``.pvd`` raise ``ValueError`` before anything is computed or
+        written; a file that cannot be written, ``OSError``."""
+        if self.model is None:
+            raise ValueError("this branch was unpickled without its model: to_vtk() needs the model")
+        if not self.model._native.has_layout:
+            raise ValueError(
+                "to_vtk draws on a model's nodes: the beam and solid families have them, this model does not"
+            )
+        path = os.fspath(path)
+        if not str(path).endswith(".pvd"):
+            raise ValueError(f"to_vtk writes a ParaView collection: the path must end in .pvd, got {path!r}")
+        frames = _checks.integer("frames", frames)
+        if frames < 1:
+            raise ValueError(f"frames must be at least 1, got {frames}")
+        n = len(self)
+        points = f"{n} point{'' if n == 1 else 's'} (0 to {n - 1}, or -{n} to -1 from the end)" if n else "no points"
+        _checks.index("the point index", i, n, f"point {{}} does not exist: the branch has {points}")
+        motion = self.motion(i, samples=frames, tolerance=1e-8)
+        self.model._native.write_vtk(path, [float(t) for t in motion.t[:-1]], np.ascontiguousarray(motion.x[:-1]))
 
     def switch(self, event: int = 0, **kwargs: Any) -> "Branch":
         """The family through ``events[event]`` (see :func:`nnm.switch`)."""

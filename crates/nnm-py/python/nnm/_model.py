@@ -437,7 +437,13 @@ def solid(**parameters: Any) -> dict[str, Any]:
     27-node hexahedra (``element = "hex27"``), ``elements`` along each edge, the faces named in
     ``clamped`` (``"x0"``, ``"x1"``, ``"y0"``, ... or a list) held; nonlinear force and tangent
     computed element by element (docs/method.md §20). Node ``i + (2nx+1)(j + (2ny+1)k)`` has
-    dofs ``3·node + c``, the clamped nodes' removed (docs/job-files.md, "Solids"). SI units."""
+    dofs ``3·node + c``, the clamped nodes' removed (docs/job-files.md, "Solids"). SI units.
+
+    Or a Gmsh mesh: ``mesh="blade.msh"`` (MSH 4.1, 10-node tetrahedra and 27-node hexahedra)
+    with ``clamped`` naming its physical groups (docs/job-files.md, "Meshes")."""
+    mesh = parameters.get("mesh")
+    if mesh is not None and not isinstance(mesh, dict):
+        parameters["mesh"] = {"file": os.fspath(mesh)}
     for key in ("box", "elements"):
         if key in parameters and not isinstance(parameters[key], str):
             parameters[key] = list(parameters[key])

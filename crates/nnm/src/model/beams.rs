@@ -1,7 +1,7 @@
 //! Finite-element beam families: stiff models with consistent mass, the case the implicit
 //! integrators are for.
 
-use super::{ModelError, NonlinearElement, PolynomialSpring, SparseMatrix, Structure};
+use super::{Layout, ModelError, NonlinearElement, PolynomialSpring, SparseMatrix, Structure};
 use crate::number::Number;
 
 /// A clamped–free Euler–Bernoulli beam of `elements` two-node Hermite elements (transverse
@@ -50,6 +50,13 @@ impl Default for CantileverBeam {
 }
 
 impl CantileverBeam {
+    /// The beam as points along x, its deflection `w` along z (the rotations move no point).
+    pub fn layout(&self) -> Layout {
+        Layout::beam(self.elements + 1, self.length, |i| {
+            [None, None, (i > 0).then(|| 2 * (i - 1))]
+        })
+    }
+
     /// The tip's transverse displacement dof.
     pub fn tip(&self) -> usize {
         2 * self.elements - 2

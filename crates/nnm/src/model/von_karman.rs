@@ -8,7 +8,7 @@
 use std::sync::Arc;
 
 use super::{
-    Block, BlockMut, ModelError, NonlinearElement, PolynomialTerms, SparseMatrix, Structure,
+    Block, BlockMut, Layout, ModelError, NonlinearElement, PolynomialTerms, SparseMatrix, Structure,
 };
 use crate::number::Number;
 
@@ -377,6 +377,14 @@ impl NonlinearElement for VonKarmanElement {
 }
 
 impl VonKarmanBeam {
+    /// The beam as points along x: `u` along x, `w` along z (the rotations move no point).
+    pub fn layout(&self) -> Layout {
+        Layout::beam(self.elements + 1, self.length, |i| {
+            let d = self.node_dofs(i);
+            [d.map(|d| d[0]), None, d.map(|d| d[1])]
+        })
+    }
+
     /// The dofs `[u, w, θ]` of node `node` (0 and `elements` are the clamped ends: `None`).
     pub fn node_dofs(&self, node: usize) -> Option<[usize; 3]> {
         (1..self.elements)

@@ -6,12 +6,15 @@ use std::sync::Arc;
 
 use super::element::{Geometry, SolidElement};
 use super::material::StVenantKirchhoff;
-use crate::model::{ModelError, NonlinearElement, SparseMatrix, Structure};
+use super::tet10;
+use crate::model::{Cell, CellKind, Layout, ModelError, NonlinearElement, SparseMatrix, Structure};
 
 /// Elements over numbered nodes, which nodes are clamped, and the material.
 pub(super) struct Body {
     /// Number of nodes.
     pub nodes: usize,
+    /// The nodes' reference coordinates (m).
+    pub coordinates: Vec<[f64; 3]>,
     /// Per element: its nodes (in its reference element's order) and its geometry.
     pub elements: Vec<(Vec<usize>, Arc<Geometry>)>,
     /// Per node: whether its three dofs are removed.
@@ -33,6 +36,29 @@ impl Body {
                 })
             })
             .collect()
+    }
+
+    /// The nodes, the elements as cells, and each node's dofs: what a viewer draws.
+    pub fn layout(&self) -> Layout {
+        let numbers = self.dof_numbers();
+        Layout {
+            points: self.coordinates.clone(),
+            cells: self
+                .elements
+                .iter()
+                .map(|(nodes, _)| Cell {
+                    kind: if nodes.len() == tet10::NODES {
+                        CellKind::Tet10
+                    } else {
+                        CellKind::Hex27
+                    },
+                    points: nodes.clone(),
+                })
+                .collect(),
+            dofs: (0..self.nodes)
+                .map(|g| [0, 1, 2].map(|c| numbers[3 * g + c]))
+                .collect(),
+        }
     }
 
     /// The model: sparse `M` and `K`, one nonlinear element per finite element.

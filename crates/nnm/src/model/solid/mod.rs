@@ -8,6 +8,8 @@ mod assembly;
 mod element;
 mod hex27;
 mod material;
+mod mesh;
+mod tet10;
 
 use std::sync::Arc;
 
@@ -16,10 +18,12 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use self::assembly::Body;
 use self::element::Geometry;
 use self::material::StVenantKirchhoff;
-use super::{ModelError, Structure};
+use super::{Layout, ModelError, Structure};
 use crate::number::Number;
 
-/// The solid elements.
+pub use self::mesh::{Mesh, MeshElement, MeshElementKind, NodeGroup};
+
+/// The elements of a structured box.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SolidElementKind {
@@ -40,6 +44,10 @@ pub enum SolidElementKind {
 /// ρ = 2700 kg/m³) clamped at both ends — the three-dimensional twin of the built-in von
 /// Kármán beam, whose bending stretches it and hardens it — with `10 × 1 × 1` elements
 /// (513 dofs).
+///
+/// With [`Self::mesh`] the body is a mesh read from a file instead (tet10 and hex27
+/// elements, [`Self::build_on_mesh`]): `box`, `elements` and `element` do not apply, and
+/// `clamped` names the mesh's physical groups.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Solid {
@@ -60,6 +68,18 @@ pub struct Solid {
     pub poisson_ratio: f64,
     /// Density `ρ` (kg/m³).
     pub density: f64,
+    /// A mesh file instead of the box (`mesh = { file = "blade.msh" }`), read by the I/O
+    /// layer (`nnm_io`), which hands the mesh to [`Self::build_on_mesh`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<MeshFile>,
+}
+
+/// Where a solid's mesh comes from.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshFile {
+    /// A Gmsh MSH 4.1 file (ASCII or binary), relative to the job file.
+    pub file: String,
 }
 
 impl Default for Solid {
@@ -72,6 +92,7 @@ impl Default for Solid {
             youngs_modulus: 70e9,
             poisson_ratio: 0.33,
             density: 2700.0,
+            mesh: None,
         }
     }
 }
@@ -148,6 +169,16 @@ impl Solid {
             }
         }
         let nodes = grid.iter().product();
+        let coordinates = (0..nodes)
+            .map(|g| {
+                let ijk = [
+                    g % grid[0],
+                    (g / grid[0]) % grid[1],
+                    g / (grid[0] * grid[1]),
+                ];
+                std::array::from_fn(|d| ijk[d] as f64 * step[d])
+            })
+            .collect();
         let clamped = (0..nodes)
             .map(|g| {
                 self.is_clamped([
@@ -159,6 +190,7 @@ impl Solid {
             .collect();
         Ok(Body {
             nodes,
+            coordinates,
             elements,
             clamped,
             material: StVenantKirchhoff::new(self.youngs_modulus, self.poisson_ratio),
@@ -187,6 +219,30 @@ impl Solid {
         Some([0, 1, 2].map(|c| 3 * before + c))
     }
 
+    /// The material constants: positive, finite `E` and `ρ`, `−1 < ν < 0.5`.
+    fn validate_material(&self) -> Result<(), ModelError> {
+        let invalid = |s: String| Err(ModelError::InvalidParameter(s));
+        for (name, value) in [
+            ("youngs_modulus", self.youngs_modulus),
+            ("density", self.density),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return invalid(format!(
+                    "{name} must be positive and finite, got {}",
+                    Number(value)
+                ));
+            }
+        }
+        let nu = self.poisson_ratio;
+        if !(nu > -1.0 && nu < 0.5) {
+            return invalid(format!(
+                "poisson_ratio must lie strictly between -1 and 0.5, got {}",
+                Number(nu)
+            ));
+        }
+        Ok(())
+    }
+
     fn validate(&self) -> Result<(), ModelError> {
         let invalid = |s: String| Err(ModelError::InvalidParameter(s));
         for (axis, &n) in ["x", "y", "z"].iter().zip(&self.elements) {
@@ -208,24 +264,7 @@ impl Solid {
                 ));
             }
         }
-        for (name, value) in [
-            ("youngs_modulus", self.youngs_modulus),
-            ("density", self.density),
-        ] {
-            if !(value.is_finite() && value > 0.0) {
-                return invalid(format!(
-                    "{name} must be positive and finite, got {}",
-                    Number(value)
-                ));
-            }
-        }
-        let nu = self.poisson_ratio;
-        if !(nu > -1.0 && nu < 0.5) {
-            return invalid(format!(
-                "poisson_ratio must lie strictly between -1 and 0.5, got {}",
-                Number(nu)
-            ));
-        }
+        self.validate_material()?;
         if let Some(face) = self.clamped.iter().find(|f| !FACES.contains(&f.as_str())) {
             return invalid(format!(
                 "clamped face `{face}` is not a face of the box (x0, x1, y0, y1, z0, z1)"
@@ -234,10 +273,41 @@ impl Solid {
         Ok(())
     }
 
-    /// Builds the model (eq. (104)).
+    /// Builds the box's model (eq. (104)). A solid with a [`Self::mesh`] file is built by
+    /// the I/O layer, which reads the file: here it is an error.
     pub fn build(&self) -> Result<Structure, ModelError> {
+        if let Some(mesh) = &self.mesh {
+            return Err(ModelError::InvalidParameter(format!(
+                "the mesh file `{}` must be read first (nnm_io::job reads it; or Solid::build_on_mesh)",
+                mesh.file
+            )));
+        }
         self.validate()?;
         self.body()?.build()
+    }
+
+    /// Builds the model on `mesh` (its tet10 and hex27 elements, the nodes of the physical
+    /// groups named in `clamped` held), with this solid's material; `box`, `elements` and
+    /// `element` are not used.
+    pub fn build_on_mesh(&self, mesh: &Mesh) -> Result<Structure, ModelError> {
+        Ok(self.model_on_mesh(mesh)?.0)
+    }
+
+    /// [`Self::build_on_mesh`], with the mesh's [`Layout`] (its body nodes, elements and dofs).
+    pub fn model_on_mesh(&self, mesh: &Mesh) -> Result<(Structure, Layout), ModelError> {
+        self.validate_material()?;
+        let body = mesh.body(
+            &self.clamped,
+            StVenantKirchhoff::new(self.youngs_modulus, self.poisson_ratio),
+            self.density,
+        )?;
+        Ok((body.build()?, body.layout()))
+    }
+
+    /// The box's grid nodes, elements and dofs (a solid on a mesh: [`Self::model_on_mesh`]).
+    pub fn layout(&self) -> Result<Layout, ModelError> {
+        self.validate()?;
+        Ok(self.body()?.layout())
     }
 }
 

@@ -47,6 +47,110 @@ fn grid_coordinates(b: &Solid) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// A conforming tet10 mesh of the `(2n+1)`-point grid of a box's nodes (node numbering as
+/// the box's): each of the `n[0] × n[1] × n[2]` cells cut along its main diagonal into six
+/// tetrahedra (Kuhn's split), whose mid-edge nodes are grid nodes. Node `g` at
+/// `place([i, j, k])`; a group per face (`x0`, ..., `z1`) with the face's nodes.
+fn tet10_grid(elements: [usize; 3], place: impl Fn([usize; 3]) -> [f64; 3]) -> Mesh {
+    let grid = elements.map(|n| 2 * n + 1);
+    let node = |p: [usize; 3]| p[0] + grid[0] * (p[1] + grid[1] * p[2]);
+    let ijk = |g: usize| {
+        [
+            g % grid[0],
+            (g / grid[0]) % grid[1],
+            g / (grid[0] * grid[1]),
+        ]
+    };
+    let count: usize = grid.iter().product();
+    let nodes: Vec<[f64; 3]> = (0..count).map(|g| place(ijk(g))).collect();
+    let reference = tet10::node_coordinates();
+    let mut cells = Vec::new();
+    for ez in 0..elements[2] {
+        for ey in 0..elements[1] {
+            for ex in 0..elements[0] {
+                for permutation in [
+                    [0, 1, 2],
+                    [0, 2, 1],
+                    [1, 0, 2],
+                    [1, 2, 0],
+                    [2, 0, 1],
+                    [2, 1, 0],
+                ] {
+                    // The path (0,0,0) → e_π0 → e_π0 + e_π1 → (1,1,1), in grid steps of 2.
+                    let mut corner = [0usize; 3];
+                    let mut vertices = vec![corner];
+                    for &axis in &permutation {
+                        corner[axis] += 2;
+                        vertices.push(corner);
+                    }
+                    // Right-handed: swap two vertices where the edges' triple product is
+                    // negative (the odd permutations).
+                    let edge = |v: usize| vertices[v].map(|c| c as f64);
+                    let (a, b, c) = (edge(1), edge(2), edge(3));
+                    let volume = a[0] * (b[1] * c[2] - b[2] * c[1])
+                        - a[1] * (b[0] * c[2] - b[2] * c[0])
+                        + a[2] * (b[0] * c[1] - b[1] * c[0]);
+                    if volume < 0.0 {
+                        vertices.swap(1, 2);
+                    }
+                    let base = [2 * ex, 2 * ey, 2 * ez];
+                    // A reference node as the combination of the vertices.
+                    let at = |v: [f64; 3]| -> [usize; 3] {
+                        let l = [1.0 - v[0] - v[1] - v[2], v[0], v[1], v[2]];
+                        std::array::from_fn(|d| {
+                            let offset: f64 = (0..4).map(|i| l[i] * vertices[i][d] as f64).sum();
+                            base[d] + offset.round() as usize
+                        })
+                    };
+                    let nodes: Vec<usize> = reference.iter().map(|&v| node(at(v))).collect();
+                    cells.push(nodes);
+                }
+            }
+        }
+    }
+    let elements = cells
+        .into_iter()
+        .enumerate()
+        .map(|(k, nodes)| MeshElement {
+            kind: MeshElementKind::Tet10,
+            tag: k as u64 + 1,
+            nodes,
+        })
+        .collect();
+    let groups = FACES
+        .iter()
+        .enumerate()
+        .map(|(f, name)| {
+            let (axis, end) = (f / 2, f % 2 == 1);
+            NodeGroup {
+                name: name.to_string(),
+                nodes: (0..count)
+                    .filter(|&g| ijk(g)[axis] == if end { grid[axis] - 1 } else { 0 })
+                    .collect(),
+            }
+        })
+        .collect();
+    Mesh {
+        nodes,
+        elements,
+        groups,
+    }
+}
+
+/// The same body as hex27 box and as tet10 mesh of its grid: `(element, model, node
+/// coordinates)`, nodes numbered alike.
+fn both_elements(b: &Solid) -> [(&'static str, Structure, Vec<[f64; 3]>); 2] {
+    let coordinates = grid_coordinates(b);
+    let step: [f64; 3] = std::array::from_fn(|d| b.size[d] / (2 * b.elements[d]) as f64);
+    let mesh = tet10_grid(b.elements, |p| {
+        std::array::from_fn(|d| p[d] as f64 * step[d])
+    });
+    [
+        ("hex27", b.build().unwrap(), coordinates.clone()),
+        ("tet10", b.build_on_mesh(&mesh).unwrap(), coordinates),
+    ]
+}
+
 /// The dense tangent through the elements' products and through the assembled values.
 fn tangents(s: &Structure, x: &[f64]) -> (Vec<f64>, Vec<f64>) {
     let n = x.len();
@@ -82,25 +186,32 @@ fn large_state(n: usize, seed: u64) -> Vec<f64> {
 /// assembled values, and symmetric.
 #[test]
 fn tangent_is_symmetric_jacobian_of_force() {
-    let s = small_box([2, 1, 1], &["x0"]).build().unwrap();
-    let n = s.dofs();
-    let x = large_state(n, 0x9e37_79b9_7f4a_7c15);
-    let (kt, assembled) = tangents(&s, &x);
-    let scale = max_abs(&kt);
-    let h = 1e-7;
-    for j in 0..n {
-        let (mut xp, mut xm) = (x.clone(), x.clone());
-        xp[j] += h;
-        xm[j] -= h;
-        let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
-        s.internal_force(&xp, &mut fp);
-        s.internal_force(&xm, &mut fm);
-        for i in 0..n {
-            let fd = (fp[i] - fm[i]) / (2.0 * h);
-            let k = kt[j * n + i];
-            assert!((fd - k).abs() < 1e-7 * scale, "({i}, {j}): {fd} vs {k}");
-            assert!((assembled[j * n + i] - k).abs() < 1e-13 * scale);
-            assert!((kt[i * n + j] - k).abs() < 1e-13 * scale, "({i}, {j})");
+    for (element, s, _) in both_elements(&small_box([2, 1, 1], &["x0"])) {
+        let n = s.dofs();
+        let x = large_state(n, 0x9e37_79b9_7f4a_7c15);
+        let (kt, assembled) = tangents(&s, &x);
+        let scale = max_abs(&kt);
+        let h = 1e-7;
+        for j in 0..n {
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[j] += h;
+            xm[j] -= h;
+            let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
+            s.internal_force(&xp, &mut fp);
+            s.internal_force(&xm, &mut fm);
+            for i in 0..n {
+                let fd = (fp[i] - fm[i]) / (2.0 * h);
+                let k = kt[j * n + i];
+                assert!(
+                    (fd - k).abs() < 1e-7 * scale,
+                    "{element} ({i}, {j}): {fd} vs {k}"
+                );
+                assert!((assembled[j * n + i] - k).abs() < 1e-13 * scale);
+                assert!(
+                    (kt[i * n + j] - k).abs() < 1e-13 * scale,
+                    "{element} ({i}, {j})"
+                );
+            }
         }
     }
 }
@@ -109,32 +220,33 @@ fn tangent_is_symmetric_jacobian_of_force() {
 /// alone (central differences; the potential is quartic).
 #[test]
 fn force_is_gradient_of_potential() {
-    let s = small_box([2, 1, 1], &["x0"]).build().unwrap();
-    let n = s.dofs();
-    let x = large_state(n, 0x2545_f491_4f6c_dd1d);
-    let nonlinear = |x: &[f64]| s.elements().iter().map(|e| e.potential(x)).sum::<f64>();
-    let (mut f, mut f_nl) = (vec![0.0; n], vec![0.0; n]);
-    s.internal_force(&x, &mut f);
-    s.nonlinear_force(&x, &mut f_nl);
-    let (scale, scale_nl) = (max_abs(&f), max_abs(&f_nl));
-    assert!(scale_nl > 1e-2 * scale, "the state is nonlinear");
-    let h = 1e-7;
-    for i in 0..n {
-        let (mut xp, mut xm) = (x.clone(), x.clone());
-        xp[i] += h;
-        xm[i] -= h;
-        let fd = (s.potential_energy(&xp) - s.potential_energy(&xm)) / (2.0 * h);
-        assert!(
-            (fd - f[i]).abs() < 1e-7 * scale,
-            "dof {i}: {fd} vs {}",
-            f[i]
-        );
-        let fd = (nonlinear(&xp) - nonlinear(&xm)) / (2.0 * h);
-        assert!(
-            (fd - f_nl[i]).abs() < 1e-7 * scale_nl,
-            "dof {i}: {fd} vs {}",
-            f_nl[i]
-        );
+    for (element, s, _) in both_elements(&small_box([2, 1, 1], &["x0"])) {
+        let n = s.dofs();
+        let x = large_state(n, 0x2545_f491_4f6c_dd1d);
+        let nonlinear = |x: &[f64]| s.elements().iter().map(|e| e.potential(x)).sum::<f64>();
+        let (mut f, mut f_nl) = (vec![0.0; n], vec![0.0; n]);
+        s.internal_force(&x, &mut f);
+        s.nonlinear_force(&x, &mut f_nl);
+        let (scale, scale_nl) = (max_abs(&f), max_abs(&f_nl));
+        assert!(scale_nl > 1e-2 * scale, "the state is nonlinear");
+        let h = 1e-7;
+        for i in 0..n {
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[i] += h;
+            xm[i] -= h;
+            let fd = (s.potential_energy(&xp) - s.potential_energy(&xm)) / (2.0 * h);
+            assert!(
+                (fd - f[i]).abs() < 1e-7 * scale,
+                "{element} dof {i}: {fd} vs {}",
+                f[i]
+            );
+            let fd = (nonlinear(&xp) - nonlinear(&xm)) / (2.0 * h);
+            assert!(
+                (fd - f_nl[i]).abs() < 1e-7 * scale_nl,
+                "{element} dof {i}: {fd} vs {}",
+                f_nl[i]
+            );
+        }
     }
 }
 
@@ -143,44 +255,43 @@ fn force_is_gradient_of_potential() {
 /// first elastic one far above round-off.
 #[test]
 fn free_body_has_six_rigid_body_modes() {
-    let b = small_box([2, 1, 1], &[]);
-    let s = b.build().unwrap();
-    let n = s.dofs();
-    let coordinates = grid_coordinates(&b);
-    let k = s.stiffness();
-    let k_scale = k.entries().fold(0.0f64, |m, e| m.max(e.2.abs()));
-    for mode in 0..6 {
-        let r: Vec<f64> = (0..n)
-            .map(|d| {
-                let (x, c) = (coordinates[d / 3], d % 3);
-                if mode < 3 {
-                    f64::from(u8::from(c == mode))
-                } else {
-                    // e_axis × X
-                    let axis = mode - 3;
-                    let (p, q) = ((axis + 1) % 3, (axis + 2) % 3);
-                    if c == q {
-                        x[p]
-                    } else if c == p {
-                        -x[q]
+    for (element, s, coordinates) in both_elements(&small_box([2, 1, 1], &[])) {
+        let n = s.dofs();
+        let k = s.stiffness();
+        let k_scale = k.entries().fold(0.0f64, |m, e| m.max(e.2.abs()));
+        for mode in 0..6 {
+            let r: Vec<f64> = (0..n)
+                .map(|d| {
+                    let (x, c) = (coordinates[d / 3], d % 3);
+                    if mode < 3 {
+                        f64::from(u8::from(c == mode))
                     } else {
-                        0.0
+                        // e_axis × X
+                        let axis = mode - 3;
+                        let (p, q) = ((axis + 1) % 3, (axis + 2) % 3);
+                        if c == q {
+                            x[p]
+                        } else if c == p {
+                            -x[q]
+                        } else {
+                            0.0
+                        }
                     }
-                }
-            })
-            .collect();
-        let kr = k.times(&r);
-        assert!(
-            max_abs(&kr) < 1e-13 * k_scale * max_abs(&r),
-            "rigid motion {mode}: |K r| = {:e}",
-            max_abs(&kr)
-        );
+                })
+                .collect();
+            let kr = k.times(&r);
+            assert!(
+                max_abs(&kr) < 1e-13 * k_scale * max_abs(&r),
+                "{element} rigid motion {mode}: |K r| = {:e}",
+                max_abs(&kr)
+            );
+        }
+        let modes = linear_modes(&s).unwrap();
+        assert_eq!(modes.iter().filter(|m| m.rigid).count(), 6, "{element}");
+        assert!(modes[..6].iter().all(|m| m.rigid));
+        let highest = modes.last().unwrap().frequency;
+        assert!(modes[6].frequency > 1e-3 * highest);
     }
-    let modes = linear_modes(&s).unwrap();
-    assert_eq!(modes.iter().filter(|m| m.rigid).count(), 6);
-    assert!(modes[..6].iter().all(|m| m.rigid));
-    let highest = modes.last().unwrap().frequency;
-    assert!(modes[6].frequency > 1e-3 * highest);
 }
 
 /// SVK is objective: a finite rigid rotation (plus a translation) of a free body strains
@@ -189,8 +300,6 @@ fn free_body_has_six_rigid_body_modes() {
 #[test]
 fn finite_rigid_rotation_gives_no_force() {
     let b = small_box([2, 2, 1], &[]);
-    let s = b.build().unwrap();
-    let n = s.dofs();
     // Rotation by 0.9 rad about (1, 2, 3)/√14 (Rodrigues).
     let axis = [1.0, 2.0, 3.0].map(|v: f64| v / 14f64.sqrt());
     let (sin, cos) = 0.9f64.sin_cos();
@@ -210,29 +319,33 @@ fn finite_rigid_rotation_gives_no_force() {
         })
     });
     let translation = [0.01, -0.02, 0.005];
-    let x: Vec<f64> = grid_coordinates(&b)
-        .iter()
-        .flat_map(|p| {
-            (0..3).map(move |i| {
-                (0..3).map(|j| rotation[i][j] * p[j]).sum::<f64>() - p[i] + translation[i]
+    for (element, s, coordinates) in both_elements(&b) {
+        let n = s.dofs();
+        let x: Vec<f64> = coordinates
+            .iter()
+            .flat_map(|p| {
+                (0..3).map(move |i| {
+                    (0..3).map(|j| rotation[i][j] * p[j]).sum::<f64>() - p[i] + translation[i]
+                })
             })
-        })
-        .collect();
-    assert_eq!(x.len(), n);
-    let kx = s.stiffness().times(&x);
-    let mut f = vec![0.0; n];
-    s.internal_force(&x, &mut f);
-    assert!(
-        max_abs(&f) < 1e-12 * max_abs(&kx),
-        "|f| = {:e} against |K x| = {:e}",
-        max_abs(&f),
-        max_abs(&kx)
-    );
-    let linear = 0.5 * crate::linalg::dot(&x, &kx);
-    assert!(s.potential_energy(&x).abs() < 1e-12 * linear);
+            .collect();
+        assert_eq!(x.len(), n);
+        let kx = s.stiffness().times(&x);
+        let mut f = vec![0.0; n];
+        s.internal_force(&x, &mut f);
+        assert!(
+            max_abs(&f) < 1e-12 * max_abs(&kx),
+            "{element}: |f| = {:e} against |K x| = {:e}",
+            max_abs(&f),
+            max_abs(&kx)
+        );
+        let linear = 0.5 * crate::linalg::dot(&x, &kx);
+        assert!(s.potential_energy(&x).abs() < 1e-12 * linear);
+    }
 }
 
-/// The patch test on a mesh of unequal, sheared elements: under an affine displacement the
+/// The patch test on a mesh of unequal, sheared elements (hex27, and the same nodes cut into
+/// tet10): under an affine displacement the
 /// stress is constant, so the internal force (linear and nonlinear) at every interior node
 /// vanishes to round-off of the boundary nodes' forces.
 #[test]
@@ -272,39 +385,49 @@ fn affine_displacement_passes_the_patch_test() {
     }
     let body = Body {
         nodes: 125,
+        coordinates: coordinates.clone(),
         elements,
         clamped: vec![false; 125],
         material: material::StVenantKirchhoff::new(70e9, 0.33),
         density: 2700.0,
     };
-    let s = body.build().unwrap();
-    let gradient = [
-        [0.02, -0.01, 0.03],
-        [0.015, 0.01, -0.02],
-        [-0.01, 0.025, 0.005],
-    ];
-    let x: Vec<f64> = coordinates
-        .iter()
-        .flat_map(|p| (0..3).map(move |i| (0..3).map(|j| gradient[i][j] * p[j]).sum::<f64>()))
-        .collect();
-    let mut f_nl = vec![0.0; x.len()];
-    s.nonlinear_force(&x, &mut f_nl);
-    let f_lin = s.stiffness().times(&x);
-    let interior = |g: usize| {
-        [g % 5, (g / 5) % 5, g / 25]
+    // The same nodes cut into tet10 elements.
+    let tets = tet10_grid([2, 2, 2], |p| coordinates[node(p[0], p[1], p[2])]);
+    let tets = Solid {
+        clamped: vec![],
+        ..Solid::default()
+    }
+    .build_on_mesh(&tets)
+    .unwrap();
+    for (element, s) in [("hex27", body.build().unwrap()), ("tet10", tets)] {
+        let gradient = [
+            [0.02, -0.01, 0.03],
+            [0.015, 0.01, -0.02],
+            [-0.01, 0.025, 0.005],
+        ];
+        let x: Vec<f64> = coordinates
             .iter()
-            .all(|&c| (1..4).contains(&c))
-    };
-    for f in [&f_lin, &f_nl] {
-        let scale = max_abs(f);
-        assert!(scale > 0.0);
-        for g in (0..125).filter(|&g| interior(g)) {
-            for c in 0..3 {
-                assert!(
-                    f[3 * g + c].abs() < 1e-12 * scale,
-                    "node {g}: {:e} of {scale:e}",
-                    f[3 * g + c]
-                );
+            .flat_map(|p| (0..3).map(move |i| (0..3).map(|j| gradient[i][j] * p[j]).sum::<f64>()))
+            .collect();
+        let mut f_nl = vec![0.0; x.len()];
+        s.nonlinear_force(&x, &mut f_nl);
+        let f_lin = s.stiffness().times(&x);
+        let interior = |g: usize| {
+            [g % 5, (g / 5) % 5, g / 25]
+                .iter()
+                .all(|&c| (1..4).contains(&c))
+        };
+        for f in [&f_lin, &f_nl] {
+            let scale = max_abs(f);
+            assert!(scale > 0.0);
+            for g in (0..125).filter(|&g| interior(g)) {
+                for c in 0..3 {
+                    assert!(
+                        f[3 * g + c].abs() < 1e-12 * scale,
+                        "{element} node {g}: {:e} of {scale:e}",
+                        f[3 * g + c]
+                    );
+                }
             }
         }
     }
