@@ -239,7 +239,7 @@ impl<'a, S: MechanicalSystem + ?Sized> GaussLegendre<'a, S> {
         // one the iterate needs: Newton diverged, or stalled at 10% and the step went on to
         // a non-finite state. Measured on the default hex27 box (513 dofs) to +5%: 63 points
         // with 29 rejected steps in 527 s before, 24 points with none in 199 s now; a Gmsh
-        // tet10 mesh of the same box (13,602 dofs) could not start its branch before. (Nor
+        // tet10 mesh of the same box (13,626 dofs) could not start its branch before. (Nor
         // the last step's collocation polynomial extrapolated: its unresolved stiff
         // components, amplified by the extrapolation, move the step-count estimate — three
         // times the steps an integration on the von Kármán example.)
