@@ -8,3 +8,14 @@ pub(crate) fn io_reason(e: &std::io::Error) -> String {
         None => s,
     }
 }
+
+/// A file refused (a mesh that cannot be read) or not written (ParaView output): one line,
+/// naming the file.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {message}", .path.display())]
+pub struct FileError {
+    /// The file.
+    pub path: std::path::PathBuf,
+    /// What is wrong, or what went wrong.
+    pub message: String,
+}

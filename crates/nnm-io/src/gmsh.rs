@@ -6,22 +6,12 @@
 //! `$PhysicalNames`, which it skips, is a few ASCII lines read here.
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use mshio::mshfile::{ElementType, MshFile};
 use nnm::model::{Mesh, MeshElement, MeshElementKind, NodeGroup};
 
-use crate::error::io_reason;
-
-/// Why a mesh file was refused: one line, naming the file.
-#[derive(Debug, thiserror::Error)]
-#[error("{}: {message}", .path.display())]
-pub struct MeshError {
-    /// The file.
-    pub path: PathBuf,
-    /// What is wrong.
-    pub message: String,
-}
+use crate::error::{FileError, io_reason};
 
 /// Gmsh's node order of its 10-node tetrahedron (type 11) on the reference element: the
 /// vertices, then the mid-edge nodes of the edges 0–1, 1–2, 0–2, 0–3, 2–3, 1–3.
@@ -74,8 +64,8 @@ const GMSH_HEX27: [[f64; 3]; 27] = [
 /// ascending tag order, and its physical groups (of any dimension) as node groups.
 /// One-line errors for an unreadable file, another MSH version, a file that does not parse,
 /// and volume elements of another type.
-pub fn read_mesh(path: &Path) -> Result<Mesh, MeshError> {
-    let fail = |message: String| MeshError {
+pub fn read_mesh(path: &Path) -> Result<Mesh, FileError> {
+    let fail = |message: String| FileError {
         path: path.to_owned(),
         message,
     };

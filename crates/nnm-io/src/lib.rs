@@ -3,6 +3,7 @@
 //! core (`nnm`) knows nothing of files; this crate is the bridge.
 
 mod error;
+pub use error::FileError;
 pub mod export;
 pub mod gmsh;
 pub mod job;

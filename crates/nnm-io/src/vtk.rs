@@ -3,7 +3,7 @@
 //! whose time steps are the frames' times — what FE users open to watch a mode shape or an
 //! NNM's motion (ParaView: open the `.pvd`, then "Warp By Vector" on `displacement`).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use nnm::model::{CellKind, Layout, MeshElementKind};
 use vtkio::model::{
@@ -11,17 +11,7 @@ use vtkio::model::{
     Version, VertexNumbers, Vtk,
 };
 
-use crate::error::io_reason;
-
-/// Why a file could not be written: one line, naming the file.
-#[derive(Debug, thiserror::Error)]
-#[error("{}: {message}", .path.display())]
-pub struct VtkError {
-    /// The file.
-    pub path: PathBuf,
-    /// What went wrong.
-    pub message: String,
-}
+use crate::error::{FileError, io_reason};
 
 /// VTK's point order of its quadratic tetrahedron (cell type 24): the vertices, then the
 /// mid-edge points of the edges 0–1, 1–2, 2–0, 0–3, 1–3, 2–3.
@@ -116,8 +106,8 @@ pub fn write_motion(
     pvd: &Path,
     layout: &Layout,
     frames: &[(f64, Vec<f64>)],
-) -> Result<(), VtkError> {
-    let fail = |path: &Path, message: String| VtkError {
+) -> Result<(), FileError> {
+    let fail = |path: &Path, message: String| FileError {
         path: path.to_owned(),
         message,
     };
