@@ -59,7 +59,13 @@ enum Command {
         /// Also write ParaView files (beams and solids): DIR/vtk/modes.pvd (the linear mode
         /// shapes) and DIR/vtk/<branch>-<point>.pvd (a period's motion in 32 frames) for the
         /// POINTS of each branch: first, last, all, or indices such as 0,10,-1.
-        #[arg(long, value_name = "POINTS", num_args = 0..=1, default_missing_value = "first,last")]
+        #[arg(
+            long,
+            value_name = "POINTS",
+            num_args = 0..=1,
+            default_missing_value = "first,last",
+            allow_negative_numbers = true
+        )]
         vtk: Option<vtk::VtkPoints>,
     },
     /// Write a job's model as a finite-element code exports it: DIR/M.mtx and K.mtx (Matrix

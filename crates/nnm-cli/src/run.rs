@@ -69,12 +69,17 @@ pub fn run_job(
         _ => Vec::new(),
     };
     if let (Some(points), Some(layout)) = (vtk, layout) {
-        let written = crate::vtk::write(&job.structure, layout, &modes, &outcomes, points, out)?;
+        let (written, failed) =
+            crate::vtk::write(&job.structure, layout, &modes, &outcomes, points, out);
         say!(
             "ParaView: {} collections (.pvd) in {}",
             written.len(),
             out.join("vtk").display()
         );
+        // Printed even with --quiet: files the user asked for are missing.
+        for why in failed {
+            eprintln!("warning: ParaView file not written: {why}");
+        }
     }
     let early = stopped_early(&outcomes);
     let verdict = unfinished(&outcomes, &early).and(curves_verdict(&curves));

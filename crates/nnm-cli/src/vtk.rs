@@ -1,9 +1,9 @@
 //! `nnm run --vtk`: ParaView files of a run on a model with a layout (beams, solids): the
 //! linear mode shapes, and the motion over one period of chosen points of each branch.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use nnm::MechanicalSystem;
 use nnm::model::Layout;
 use nnm::modes::LinearMode;
@@ -86,7 +86,9 @@ pub fn check_layout(layout: Option<&Layout>) -> Result<&Layout> {
 
 /// Writes `DIR/vtk/modes.pvd` (the lowest linear mode shapes, mass-normalised, one "time"
 /// step per mode) and, for each computed branch, `DIR/vtk/<branch>-<point>.pvd`: the motion
-/// of the chosen points over one period in [`FRAMES`] frames. Returns the files written.
+/// of the chosen points over one period in [`FRAMES`] frames. Returns the files written and,
+/// one line each, those that could not be (a motion that failed to integrate, a file that
+/// could not be written): the branches' results stand whatever happens here.
 pub fn write(
     system: &(impl MechanicalSystem + ?Sized),
     layout: &Layout,
@@ -94,9 +96,9 @@ pub fn write(
     outcomes: &[Outcome],
     points: &VtkPoints,
     out: &Path,
-) -> Result<Vec<std::path::PathBuf>> {
+) -> (Vec<PathBuf>, Vec<String>) {
     let folder = out.join("vtk");
-    let mut written = Vec::new();
+    let (mut written, mut failed) = (Vec::new(), Vec::new());
     let shapes: Vec<(f64, Vec<f64>)> = modes
         .iter()
         .take(MODE_SHAPES)
@@ -104,35 +106,44 @@ pub fn write(
         .map(|(k, m)| (k as f64, m.shape.clone()))
         .collect();
     let path = folder.join("modes.pvd");
-    write_motion(&path, layout, &shapes)?;
-    written.push(path);
+    match write_motion(&path, layout, &shapes) {
+        Ok(()) => written.push(path),
+        Err(e) => failed.push(e.to_string()),
+    }
+    let n = system.dofs();
     for outcome in outcomes {
         let Ok(branch) = &outcome.result else {
             continue;
         };
         for i in points.indices(branch.points.len()) {
             let point = &branch.points[i];
-            let states = nnm::analysis::sample_motion(
+            let path = folder.join(format!("{}-{i}.pvd", outcome.info.name));
+            let states = match nnm::analysis::sample_motion(
                 system,
                 &point.z0,
                 point.period,
                 FRAMES,
                 MOTION_TOLERANCE,
-            )
-            .with_context(|| format!("branch `{}`, point {i}: motion", outcome.info.name))?;
-            let n = system.dofs();
+            ) {
+                Ok(states) => states,
+                Err(e) => {
+                    failed.push(format!("{}: the motion of point {i}: {e}", path.display()));
+                    continue;
+                }
+            };
             let frames: Vec<(f64, Vec<f64>)> = states
                 .into_iter()
                 .take(FRAMES)
                 .enumerate()
                 .map(|(k, z)| (k as f64 * point.period / FRAMES as f64, z[..n].to_vec()))
                 .collect();
-            let path = folder.join(format!("{}-{i}.pvd", outcome.info.name));
-            write_motion(&path, layout, &frames)?;
-            written.push(path);
+            match write_motion(&path, layout, &frames) {
+                Ok(()) => written.push(path),
+                Err(e) => failed.push(e.to_string()),
+            }
         }
     }
-    Ok(written)
+    (written, failed)
 }
 
 #[cfg(test)]

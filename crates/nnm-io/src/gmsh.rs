@@ -5,7 +5,7 @@
 //! The `mshio` crate parses the sections it knows (`$Entities`, `$Nodes`, `$Elements`);
 //! `$PhysicalNames`, which it skips, is a few ASCII lines read here.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 use mshio::mshfile::{ElementType, MshFile};
@@ -144,7 +144,8 @@ fn mesh_of(
     names: &HashMap<(i32, i32), String>,
 ) -> Result<Mesh, String> {
     // Nodes by tag. mshio keeps the tags only when they are sparse; otherwise they run from
-    // the smallest tag in the order of the blocks, as Gmsh writes them.
+    // the smallest tag in the order of the blocks, as Gmsh writes them (a writer that lists
+    // contiguous tags out of order is not read right: docs/job-files.md, "Meshes").
     let mut tagged: Vec<(u64, [f64; 3])> = Vec::new();
     if let Some(nodes) = &msh.data.nodes {
         let mut next = nodes.min_node_tag;
@@ -241,21 +242,25 @@ fn mesh_of(
             }
         }
     }
-    let mut groups: Vec<NodeGroup> = groups
+    // One group per name: physical groups of several dimensions under one name (a "root"
+    // surface and its edges), or unnamed ones named by their tag (tags are numbered per
+    // dimension), are the union of their nodes — deterministic, whatever the files' order.
+    let mut named: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for ((dim, tag), nodes) in groups {
+        let name = names
+            .get(&(dim, tag))
+            .cloned()
+            .unwrap_or_else(|| tag.to_string());
+        named.entry(name).or_default().extend(nodes);
+    }
+    let groups: Vec<NodeGroup> = named
         .into_iter()
-        .map(|((dim, tag), mut nodes)| {
+        .map(|(name, mut nodes)| {
             nodes.sort_unstable();
             nodes.dedup();
-            NodeGroup {
-                name: names
-                    .get(&(dim, tag))
-                    .cloned()
-                    .unwrap_or_else(|| tag.to_string()),
-                nodes,
-            }
+            NodeGroup { name, nodes }
         })
         .collect();
-    groups.sort_by(|a, b| a.name.cmp(&b.name));
     Ok(Mesh {
         nodes: tagged.into_iter().map(|(_, x)| x).collect(),
         elements,

@@ -151,9 +151,20 @@ pub fn write_motion(
         let path = folder.join(&name);
         vtk.export(&path)
             .map_err(|e| fail(&path, format!("cannot write: {e}")))?;
-        collection += &format!("    <DataSet timestep=\"{t:e}\" file=\"{stem}/{name}\"/>\n");
+        collection += &format!(
+            "    <DataSet timestep=\"{t:e}\" file=\"{}/{name}\"/>\n",
+            xml_attribute(&stem)
+        );
     }
     collection += "  </Collection>\n</VTKFile>\n";
     std::fs::write(pvd, collection)
         .map_err(|e| fail(pvd, format!("cannot write: {}", io_reason(&e))))
+}
+
+/// `text` as the value of an XML attribute in double quotes.
+fn xml_attribute(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }

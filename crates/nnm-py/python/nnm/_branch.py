@@ -201,9 +201,10 @@ class Branch:
 
     def motion(self, i: int, samples: int = 100, tolerance: float = 1e-10) -> Motion:
         """The motion of point ``i`` over one period, at ``samples + 1`` equal times, to
-        relative ``tolerance``: each segment integrated adaptively, or, for a stiff model (a
-        finite-element beam or solid), by the collocation method its branches use, on the
-        equal steps an integration of the period chooses (so sampling costs no accuracy).
+        relative ``tolerance``: each segment integrated adaptively (so sampling costs no
+        accuracy), or, for a stiff model (a finite-element beam or solid), by the collocation
+        method its branches use, on as many equal steps as its global error estimate over the
+        period asks, rounded up to a multiple of ``samples``.
 
         ``i`` counts as the per-point arrays do (``-1`` is the last point, as in
         ``branch.energy[-1]``); ``samples`` is at least 1 and at most what fits in half the

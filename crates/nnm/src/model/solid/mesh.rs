@@ -110,7 +110,7 @@ impl Mesh {
     /// For each node of [`Self::nodes`], its number in the body — the nodes that some element
     /// uses, in their order — or `None` for a node no element uses (a node of a geometry
     /// point or a surface mesh only).
-    pub fn body_nodes(&self) -> Vec<Option<usize>> {
+    fn body_nodes(&self) -> Vec<Option<usize>> {
         let mut used = vec![false; self.nodes.len()];
         for e in &self.elements {
             for &a in &e.nodes {

@@ -198,8 +198,13 @@ impl Solid {
         })
     }
 
-    /// The dofs `[x, y, z]` of grid node `node` (`None` where clamped or beyond the grid).
+    /// The dofs `[x, y, z]` of grid node `node` of the box (`None` where clamped, beyond the
+    /// grid, or for a solid on a mesh: its numbering is the mesh's, [`Self::model_on_mesh`]'s
+    /// layout).
     pub fn node_dofs(&self, node: usize) -> Option<[usize; 3]> {
+        if self.mesh.is_some() {
+            return None;
+        }
         let grid = self.grid();
         let nodes: usize = grid.iter().product();
         if node >= nodes {
@@ -306,6 +311,9 @@ impl Solid {
 
     /// The box's grid nodes, elements and dofs (a solid on a mesh: [`Self::model_on_mesh`]).
     pub fn layout(&self) -> Result<Layout, ModelError> {
+        if self.mesh.is_some() {
+            return self.build().map(|_| Layout::default());
+        }
         self.validate()?;
         Ok(self.body()?.layout())
     }
