@@ -610,3 +610,85 @@ fn damped_multipliers_are_said() {
         );
     }
 }
+
+/// `nnm run --vtk` on a beam: ParaView collections of the mode shapes and of the chosen
+/// points' motions, each frame a VTK unstructured grid of the beam's 21 nodes and 20 line
+/// cells with the `displacement` array; the frames' times a period cut in 32. A model without
+/// nodes is refused with one line before anything is written.
+#[test]
+fn vtk_writes_paraview_collections_or_refuses_a_model_without_nodes() {
+    let dir = scratch("vtk");
+    let job = write(
+        &dir,
+        "job.toml",
+        "[model]\nfamily = \"von-karman-beam\"\n[[branch]]\nname = \"b\"\nmode = 0\nmax_points = 3\n",
+    );
+    let out = dir.join("out");
+    let output = nnm(&[
+        "run",
+        &job,
+        "--out",
+        out.to_str().unwrap(),
+        "--vtk",
+        "-1",
+        "-q",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let vtk = out.join("vtk");
+    let mut files: Vec<String> = std::fs::read_dir(&vtk)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    assert_eq!(files, ["b-2", "b-2.pvd", "modes", "modes.pvd"]);
+    let collection = std::fs::read_to_string(vtk.join("b-2.pvd")).unwrap();
+    let times: Vec<f64> = collection
+        .split("timestep=\"")
+        .skip(1)
+        .map(|s| s.split('"').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(times.len(), 32);
+    let period = times[1] * 32.0;
+    let csv = std::fs::read_to_string(out.join("b.csv")).unwrap();
+    let column = csv
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "period_s")
+        .unwrap();
+    let last: f64 = csv
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .nth(column)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((period / last - 1.0).abs() < 1e-9, "{period} vs {last}");
+    let frame = std::fs::read_to_string(vtk.join("b-2").join("frame-000.vtu")).unwrap();
+    assert!(frame.contains("NumberOfPoints=\"21\"") && frame.contains("NumberOfCells=\"20\""));
+    assert!(frame.contains("Name=\"displacement\""));
+
+    let duffing = write(
+        &dir,
+        "duffing.toml",
+        "[model]\nfamily = \"duffing\"\n[[branch]]\nname = \"d\"\nmode = 0\nmax_points = 2\n",
+    );
+    let refused = dir.join("refused");
+    let output = nnm(&["run", &duffing, "--out", refused.to_str().unwrap(), "--vtk"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr
+            .trim()
+            .starts_with("error: --vtk draws on a model's nodes"),
+        "{stderr}"
+    );
+    assert!(!refused.exists());
+}
