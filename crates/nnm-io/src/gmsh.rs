@@ -13,20 +13,9 @@ use nnm::model::{Mesh, MeshElement, MeshElementKind, NodeGroup};
 
 use crate::error::{FileError, io_reason};
 
-/// Gmsh's node order of its 10-node tetrahedron (type 11) on the reference element: the
-/// vertices, then the mid-edge nodes of the edges 0–1, 1–2, 0–2, 0–3, 2–3, 1–3.
-const GMSH_TET10: [[f64; 3]; 10] = [
-    [0.0, 0.0, 0.0],
-    [1.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0],
-    [0.0, 0.0, 1.0],
-    [0.5, 0.0, 0.0],
-    [0.5, 0.5, 0.0],
-    [0.0, 0.5, 0.0],
-    [0.0, 0.0, 0.5],
-    [0.0, 0.5, 0.5],
-    [0.5, 0.0, 0.5],
-];
+/// Gmsh's node order of its 10-node tetrahedron (type 11): the vertices, then the mid-edge
+/// nodes of these edges.
+const GMSH_TET10_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [0, 2], [0, 3], [2, 3], [1, 3]];
 
 /// Gmsh's node order of its 27-node hexahedron (type 12) on `[−1, 1]³`: the vertices, the
 /// twelve mid-edge nodes, the six face centres and the centre.
@@ -200,7 +189,10 @@ fn mesh_of(
         kind.order_in(format)
             .expect("Gmsh's element has every node of nnm's")
     };
-    let tet10 = order(MeshElementKind::Tet10, &GMSH_TET10);
+    let tet10 = order(
+        MeshElementKind::Tet10,
+        &MeshElementKind::tet10_with_edges(&GMSH_TET10_EDGES),
+    );
     let hex27 = order(MeshElementKind::Hex27, &GMSH_HEX27);
     let mut elements = Vec::new();
     let mut groups: HashMap<(i32, i32), Vec<usize>> = HashMap::new();

@@ -14,19 +14,8 @@ use vtkio::model::{
 use crate::error::{FileError, io_reason};
 
 /// VTK's point order of its quadratic tetrahedron (cell type 24): the vertices, then the
-/// mid-edge points of the edges 0–1, 1–2, 2–0, 0–3, 1–3, 2–3.
-const VTK_TET10: [[f64; 3]; 10] = [
-    [0.0, 0.0, 0.0],
-    [1.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0],
-    [0.0, 0.0, 1.0],
-    [0.5, 0.0, 0.0],
-    [0.5, 0.5, 0.0],
-    [0.0, 0.5, 0.0],
-    [0.0, 0.0, 0.5],
-    [0.5, 0.0, 0.5],
-    [0.0, 0.5, 0.5],
-];
+/// mid-edge points of these edges.
+const VTK_TET10_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]];
 
 /// VTK's point order of its triquadratic hexahedron (cell type 29) on `[−1, 1]³`: the
 /// vertices, the mid-edge points of the edges 0–1, 1–2, 2–3, 3–0, 4–5, 5–6, 6–7, 7–4, 0–4,
@@ -73,7 +62,10 @@ fn cells(layout: &Layout) -> Cells {
         }
         inverse
     };
-    let tet10 = order(MeshElementKind::Tet10, &VTK_TET10);
+    let tet10 = order(
+        MeshElementKind::Tet10,
+        &MeshElementKind::tet10_with_edges(&VTK_TET10_EDGES),
+    );
     let hex27 = order(MeshElementKind::Hex27, &VTK_HEX27);
     let (mut connectivity, mut offsets, mut types) = (Vec::new(), Vec::new(), Vec::new());
     for cell in &layout.cells {

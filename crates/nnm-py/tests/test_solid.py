@@ -11,10 +11,19 @@ import pytest
 import nnm
 
 
-def _svk_hex27_force(coordinates: np.ndarray, u: np.ndarray, E: float, nu: float) -> np.ndarray:
-    """Internal force of one 27-node hexahedron, 3x3x3 Gauss: f_a = ∫ F S ∇N_a dV."""
+def _svk_integrand(gradient: np.ndarray, u: np.ndarray, E: float, nu: float) -> np.ndarray:
+    """``∇N_a · (F S)ᵀ`` for every node ``a`` at one point: the St. Venant–Kirchhoff force
+    density, ``F = I + uᵀ ∇N``, ``S = λ tr(E) I + 2μ E``, ``E = ½ (FᵀF − I)``."""
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
     mu = E / (2 * (1 + nu))
+    F = np.eye(3) + u.T @ gradient
+    strain = 0.5 * (F.T @ F - np.eye(3))
+    S = lam * np.trace(strain) * np.eye(3) + 2 * mu * strain
+    return gradient @ (F @ S).T
+
+
+def _svk_hex27_force(coordinates: np.ndarray, u: np.ndarray, E: float, nu: float) -> np.ndarray:
+    """Internal force of one 27-node hexahedron, 3x3x3 Gauss: f_a = ∫ F S ∇N_a dV."""
     g, w = np.polynomial.legendre.leggauss(3)
     nodes_1d = np.array([-1.0, 0.0, 1.0])
 
@@ -36,11 +45,7 @@ def _svk_hex27_force(coordinates: np.ndarray, u: np.ndarray, E: float, nu: float
         ])  # local node i + 3 (j + 3 k)
         jacobian = coordinates.T @ reference_gradient
         gradient = reference_gradient @ np.linalg.inv(jacobian)
-        H = u.T @ gradient
-        F = np.eye(3) + H
-        strain = 0.5 * (F.T @ F - np.eye(3))
-        S = lam * np.trace(strain) * np.eye(3) + 2 * mu * strain
-        force += w[a] * w[b] * w[c] * np.linalg.det(jacobian) * gradient @ (F @ S).T
+        force += w[a] * w[b] * w[c] * np.linalg.det(jacobian) * _svk_integrand(gradient, u, E, nu)
     return force
 
 
@@ -109,8 +114,6 @@ def _svk_tet10_force(nodes: np.ndarray, u: np.ndarray, E: float, nu: float) -> n
     conical product of 4-point Gauss rules (the collapsed cube: exact to degree 7, the
     integrand's degree is 4). Each mid-edge node's function is found from the geometry: the
     node at the midpoint of vertices i and j has 4 L_i L_j."""
-    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
-    mu = E / (2 * (1 + nu))
     vertices = nodes[:4]
     edge_of = []
     for p in nodes[4:]:
@@ -128,10 +131,7 @@ def _svk_tet10_force(nodes: np.ndarray, u: np.ndarray, E: float, nu: float) -> n
         L = np.array([1 - xi.sum(), *xi])
         gradient = np.array([(4 * L[i] - 1) * dL[i] for i in range(4)]
                             + [4 * (L[i] * dL[j] + L[j] * dL[i]) for i, j in edge_of])
-        F = np.eye(3) + u.T @ gradient
-        strain = 0.5 * (F.T @ F - np.eye(3))
-        S = lam * np.trace(strain) * np.eye(3) + 2 * mu * strain
-        force += weight * gradient @ (F @ S).T
+        force += weight * _svk_integrand(gradient, u, E, nu)
     return force
 
 

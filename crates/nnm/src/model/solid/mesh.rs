@@ -52,6 +52,13 @@ impl MeshElementKind {
         }
     }
 
+    /// The reference coordinates of a 10-node tetrahedron's nodes in a format that lists
+    /// the vertices, then the mid-edge nodes of `edges` in that order: what
+    /// [`Self::order_in`] matches a format's tet10 against.
+    pub fn tet10_with_edges(edges: &[[usize; 2]; 6]) -> Vec<[f64; 3]> {
+        tet10::with_edges(edges).to_vec()
+    }
+
     /// For each node in nnm's order, its position in a file format's order whose reference
     /// coordinates are `format` (on the same reference element): the format's nodes matched
     /// by coordinates, so that no permutation is written by hand. `None` if `format` lacks

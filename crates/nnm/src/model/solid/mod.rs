@@ -281,6 +281,12 @@ impl Solid {
     /// Builds the box's model (eq. (104)). A solid with a [`Self::mesh`] file is built by
     /// the I/O layer, which reads the file: here it is an error.
     pub fn build(&self) -> Result<Structure, ModelError> {
+        self.box_body()?.build()
+    }
+
+    /// The box's body, its parameters checked; a solid with a mesh file is refused (the I/O
+    /// layer reads the file and builds on it).
+    fn box_body(&self) -> Result<Body, ModelError> {
         if let Some(mesh) = &self.mesh {
             return Err(ModelError::InvalidParameter(format!(
                 "the mesh file `{}` must be read first (nnm_io::job reads it; or Solid::build_on_mesh)",
@@ -288,7 +294,7 @@ impl Solid {
             )));
         }
         self.validate()?;
-        self.body()?.build()
+        self.body()
     }
 
     /// Builds the model on `mesh` (its tet10 and hex27 elements, the nodes of the physical
@@ -311,11 +317,7 @@ impl Solid {
 
     /// The box's grid nodes, elements and dofs (a solid on a mesh: [`Self::model_on_mesh`]).
     pub fn layout(&self) -> Result<Layout, ModelError> {
-        if self.mesh.is_some() {
-            return self.build().map(|_| Layout::default());
-        }
-        self.validate()?;
-        Ok(self.body()?.layout())
+        Ok(self.box_body()?.layout())
     }
 }
 

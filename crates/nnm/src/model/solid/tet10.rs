@@ -83,6 +83,13 @@ pub(super) fn quadrature_points() -> Vec<ReferencePoint> {
 
 /// The reference coordinates of the nodes.
 pub(super) fn node_coordinates() -> [[f64; 3]; NODES] {
+    with_edges(&EDGES)
+}
+
+/// The reference coordinates of a 10-node tetrahedron whose mid-edge nodes `4..10` lie on
+/// `edges` in that order (the vertices first): how file formats, which differ only there,
+/// declare their node orders.
+pub(super) fn with_edges(edges: &[[usize; 2]; 6]) -> [[f64; 3]; NODES] {
     let vertices = [
         [0.0, 0.0, 0.0],
         [1.0, 0.0, 0.0],
@@ -93,7 +100,7 @@ pub(super) fn node_coordinates() -> [[f64; 3]; NODES] {
         if a < 4 {
             vertices[a]
         } else {
-            let [i, j] = EDGES[a - 4];
+            let [i, j] = edges[a - 4];
             std::array::from_fn(|d| 0.5 * (vertices[i][d] + vertices[j][d]))
         }
     })
