@@ -54,7 +54,8 @@ mod response;
 mod schema;
 
 pub use branch::{
-    BranchBody, SWITCH_AMPLITUDE, branch_body, branch_mode, phase_name, resolve_mode,
+    BranchBody, RESONANCE_FORCE, SWITCH_AMPLITUDE, branch_body, branch_mode, phase_name,
+    resolve_mode,
 };
 pub use elements::{Element, spring};
 pub use families::{Family, family_defaults, family_names, family_parameter_names};
@@ -62,7 +63,7 @@ pub use load::{MAX_BRANCH_NAME, load_job, load_job_with, parse_job};
 pub use model::{BuiltModel, general_model, model_from_table};
 pub use response::{
     AMPLITUDE_START_RATIO, ForceForm, RESPONSE_KEYS, RESPONSE_SETTINGS_KEYS, ResponseBody,
-    ResponseJob, damping_matrix, force_shape, given_damping_matrix, response_body,
+    ResponseJob, damping_matrix, energy_balance, force_shape, given_damping_matrix, response_body,
     response_settings,
 };
 pub use schema::{DampingSpec, EventStart};

@@ -313,7 +313,9 @@ impl NativeModel {
     /// (settings merged over nothing: the library's defaults), or `branch` names one of the
     /// job file's. `callback(index, energy, frequency, stable)` is called after every point;
     /// returning `False` stops the branch there. Returns a dict (see `branch_dict`).
-    #[pyo3(signature = (mode, settings, branch=None, callback=None))]
+    /// `damping`: the Python model's, which a `resonance_force` setting is balanced against
+    /// (`nnm_io::job::energy_balance`).
+    #[pyo3(signature = (mode, settings, branch=None, callback=None, damping=None))]
     fn backbone<'py>(
         &self,
         py: Python<'py>,
@@ -321,8 +323,9 @@ impl NativeModel {
         settings: &Bound<'py, PyDict>,
         branch: Option<String>,
         callback: Option<Py<PyAny>>,
+        damping: Option<PyRef<'py, NativeDamping>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let body = match branch {
+        let mut body = match branch {
             Some(name) => {
                 let mut body = self.job_branch(&name, !settings.is_empty())?;
                 if let Some(mode) = mode {
@@ -345,6 +348,17 @@ impl NativeModel {
                 nnm_io::job::branch_body(table, &toml::Table::new(), false).map_err(input_error)?
             }
         };
+        if let Some(value) = &body.resonance_force {
+            let balance = nnm_io::job::energy_balance(
+                value,
+                &self.structure,
+                damping.as_deref().map(|d| &d.matrix),
+                self.fixed.as_ref(),
+                std::path::Path::new(""),
+            )
+            .map_err(PyValueError::new_err)?;
+            body.settings.output.energy_balance = Some(std::sync::Arc::new(balance));
+        }
         let mut modes = self.linear_modes(py)?;
         nnm::modes::add_labelled_mode(&self.structure, &mut modes, &body.mode, body.pattern)
             .map_err(|e| PyValueError::new_err(format!("modal analysis failed: {e}")))?;
@@ -611,7 +625,9 @@ impl NativeModel {
             mode: job.mode.clone(),
             pattern: job.pattern,
             travel: job.travel,
+            // Resolved when the job was read, against its `[model] damping`.
             settings: job.settings.clone(),
+            resonance_force: None,
         })
     }
 }

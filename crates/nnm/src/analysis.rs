@@ -1,11 +1,14 @@
 //! Post-processing of computed NNMs: motions over a period, their harmonic content, how much a
 //! shape has changed, and how energy is distributed over the sectors of a cyclic structure;
 //! the peak displacements and the regime (backbone, internal-resonance tongue, other family)
-//! measured at every point of a branch.
+//! measured at every point of a branch; and the force whose resonance peak a point's motion is
+//! (energy balance).
 
+mod energy_balance;
 mod peak;
 mod regime;
 
+pub use energy_balance::{EnergyBalance, ResonanceForce};
 pub use peak::{local_peak, peak_candidates};
 pub use regime::{
     HOME_SHARE, Home, ModalComponent, NEAR_DEGENERATE, REPORTED_SHARE, RESONANCE_WINDOW, Regime,

@@ -168,6 +168,14 @@ impl Settings {
                 "output_dofs: dof {d} does not exist (the model has {dofs} dofs, numbered from 0)"
             )));
         }
+        if let Some(balance) = &self.output.energy_balance
+            && balance.dofs() != dofs
+        {
+            return Err(SettingsError(format!(
+                "resonance_force: the energy balance has {} dofs, the model {dofs}",
+                balance.dofs()
+            )));
+        }
         Ok(())
     }
 

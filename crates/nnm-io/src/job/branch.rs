@@ -8,11 +8,18 @@ use nnm::shooting::{PhaseCondition, Travel};
 /// The branch keys that are not settings.
 const BRANCH_KEYS: [&str; 4] = ["name", "mode", "pattern", "start"];
 
+/// The setting that needs the model to be read (its force shape and `[model] damping`):
+/// taken out of the table here, resolved by [`super::energy_balance`] once the model is built.
+pub const RESONANCE_FORCE: &str = "resonance_force";
+
 /// Settings from a flat table (`[settings]` overridden by a branch's keys): a key that is
 /// neither a setting nor a branch key is refused (a typo must not fall back to a default).
-pub(super) fn settings_from(table: toml::Table) -> Result<Settings, String> {
+/// [`RESONANCE_FORCE`] is left for the caller to take out first.
+pub(super) fn settings_from(mut table: toml::Table) -> Result<Settings, String> {
+    table.remove(RESONANCE_FORCE);
     if let Some(key) = table.keys().find(|k| !Settings::KEYS.contains(&k.as_str())) {
         let mut expected: Vec<&str> = Settings::KEYS.to_vec();
+        expected.push(RESONANCE_FORCE);
         expected.extend(BRANCH_KEYS);
         return Err(format!(
             "unknown field `{key}`, expected one of {}",
@@ -39,6 +46,10 @@ pub struct BranchBody {
     pub travel: Option<Travel>,
     /// `defaults` overridden key by key by the table's own settings, validated.
     pub settings: Settings,
+    /// `resonance_force = { ... }` as written (the force shape whose resonance force every
+    /// point reports), for [`super::energy_balance`] to resolve against the model; `None`
+    /// if not given.
+    pub resonance_force: Option<toml::Value>,
 }
 
 /// The mode, pattern and settings of one branch from its table (without `name` and `start`),
@@ -67,6 +78,7 @@ pub fn branch_body(
     }
     let mut merged = defaults.clone();
     merged.extend(table);
+    let resonance_force = merged.remove(RESONANCE_FORCE);
     let has_limit = ["energy_max", "frequency_shift_max", "max_points"]
         .iter()
         .any(|k| merged.contains_key(*k));
@@ -82,6 +94,7 @@ pub fn branch_body(
         pattern,
         travel,
         settings,
+        resonance_force,
     })
 }
 

@@ -9,7 +9,7 @@ use nnm::MechanicalSystem;
 use super::branch::{BranchBody, branch_body, settings_from};
 use super::families::Family;
 use super::model::{BuiltModel, SpecError, build_model, typed_family};
-use super::response::{ResponseJob, damping_matrix, response_body};
+use super::response::{ResponseJob, damping_matrix, energy_balance, response_body};
 use super::schema::{EventStart, JobFile, from_table};
 use super::{BranchJob, Job, JobError};
 use crate::error::io_reason;
@@ -146,6 +146,17 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
     default_settings
         .validate_for(structure.dofs())
         .map_err(|e| invalid(format!("[settings]: {e}")))?;
+    let fixed = file.model.fixed_dofs.as_ref().map(|dofs| {
+        nnm::model::FixedDofs::new(structure.dofs() + dofs.len(), dofs)
+            .expect("checked when the model was built")
+    });
+    let damping = match &file.model.damping {
+        Some(spec) => Some(
+            damping_matrix(spec, &structure, fixed.as_ref(), base)
+                .map_err(|m| invalid(format!("[model] damping: {m}")))?,
+        ),
+        None => None,
+    };
     let mut branches = Vec::new();
     for (k, mut table) in file.branch.into_iter().enumerate() {
         let context = |what: &str| format!("branch {}: {what}", k + 1);
@@ -189,9 +200,15 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
             mode,
             pattern,
             travel,
-            settings,
+            mut settings,
+            resonance_force,
         } = branch_body(table, &defaults, from_event.is_some())
             .map_err(|m| invalid(context(&m)))?;
+        if let Some(value) = &resonance_force {
+            let balance = energy_balance(value, &structure, damping.as_ref(), fixed.as_ref(), base)
+                .map_err(|m| invalid(context(&m)))?;
+            settings.output.energy_balance = Some(std::sync::Arc::new(balance));
+        }
         settings
             .validate_for(structure.dofs())
             .map_err(|e| invalid(context(&e.to_string())))?;
@@ -204,17 +221,6 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
             settings,
         });
     }
-    let fixed = file.model.fixed_dofs.as_ref().map(|dofs| {
-        nnm::model::FixedDofs::new(structure.dofs() + dofs.len(), dofs)
-            .expect("checked when the model was built")
-    });
-    let damping = match &file.model.damping {
-        Some(spec) => Some(
-            damping_matrix(spec, &structure, fixed.as_ref(), base)
-                .map_err(|m| invalid(format!("[model] damping: {m}")))?,
-        ),
-        None => None,
-    };
     let mut responses: Vec<ResponseJob> = Vec::new();
     for (k, mut table) in file.response.into_iter().enumerate() {
         let context = |what: &str| format!("response {}: {what}", k + 1);

@@ -12,6 +12,7 @@
 use std::path::Path;
 
 use nnm::Settings;
+use nnm::analysis::EnergyBalance;
 use nnm::forced::damping::Damping;
 use nnm::forced::{Force, ResponseSettings, Sweep, check_sweep};
 use nnm::model::{
@@ -312,6 +313,29 @@ pub fn response_body(
         output_dofs,
         settings,
     })
+}
+
+/// The energy balance of a branch's `resonance_force = { ... }` (the forms of a response's
+/// `force`, read by [`force_shape`]; an `amplitude` given there is not used, the amplitude
+/// being what every point reports) against `damping`, the model's `[model] damping` (`None`:
+/// refused, naming the key — the balance weighs the force's work against what damping
+/// dissipates).
+pub fn energy_balance(
+    value: &toml::Value,
+    structure: &Structure,
+    damping: Option<&Matrix>,
+    fixed: Option<&FixedDofs>,
+    base: &Path,
+) -> Result<EnergyBalance, String> {
+    let Some(damping) = damping else {
+        return Err(
+            "`resonance_force` needs `[model] damping`: the energy balance weighs the force's work against what damping dissipates (e.g. `damping = { modal = [0.01] }`)"
+                .into(),
+        );
+    };
+    let form =
+        force_shape(value, structure, fixed, base).map_err(|m| format!("resonance_force: {m}"))?;
+    EnergyBalance::new(damping.clone(), form.shape).map_err(|m| format!("resonance_force: {m}"))
 }
 
 /// A force as the table gives it.

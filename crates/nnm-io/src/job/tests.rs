@@ -1352,3 +1352,59 @@ fn response_settings_are_checked_and_keep_the_response_defaults() {
         ResponseSettings::default().continuation.initial_step
     );
 }
+
+/// `resonance_force` (in `[settings]` or a branch) takes a response force's forms, an
+/// amplitude optional, and is balanced against `[model] damping`: the branch's settings carry
+/// the energy balance; without damping, with a dof out of range or with a zero shape, a
+/// one-line error names what is wrong.
+#[test]
+fn resonance_force_is_resolved_against_the_damping_or_refused() {
+    let job = |damping: &str, branch: &str| {
+        format!(
+            "[model]\nfamily = \"two-dof\"\n{damping}\n[settings]\nresonance_force = {{ dofs = [1] }}\n[[branch]]\nname = \"b\"\nmode = 0\nmax_points = 3\n{branch}\n[[branch]]\nname = \"c\"\nmode = 1\nmax_points = 3\n"
+        )
+    };
+    let parsed = parse(&job("damping = { rayleigh = [0.1, 0.0] }", "")).unwrap();
+    for b in &parsed.branches {
+        let balance = b.settings.output.energy_balance.as_ref().unwrap();
+        assert_eq!(balance.dofs(), 2);
+    }
+    // A branch's own overrides `[settings]`, amplitude and all.
+    let parsed = parse(&job(
+        "damping = { rayleigh = [0.1, 0.0] }",
+        "resonance_force = { dofs = [0], amplitude = 3.0 }",
+    ))
+    .unwrap();
+    let (own, shared) = (&parsed.branches[0].settings, &parsed.branches[1].settings);
+    assert_ne!(own.output.energy_balance, shared.output.energy_balance);
+    let cases = [
+        (
+            job("", ""),
+            "job.toml: branch 1: `resonance_force` needs `[model] damping`: the energy balance weighs the force's work against what damping dissipates (e.g. `damping = { modal = [0.01] }`)",
+        ),
+        (
+            job(
+                "damping = { rayleigh = [0.1, 0.0] }",
+                "resonance_force = { dofs = [2] }",
+            ),
+            "job.toml: branch 1: resonance_force: forced dof 2 is out of range (the model has 2 dofs)",
+        ),
+        (
+            job(
+                "damping = { rayleigh = [0.1, 0.0] }",
+                "resonance_force = { vector = [0.0, 0.0] }",
+            ),
+            "job.toml: branch 1: resonance_force: the resonance force's shape is zero",
+        ),
+        (
+            job(
+                "damping = { rayleigh = [0.1, 0.0] }",
+                "resonance_force = { dofs = [0], phase = 1.0 }",
+            ),
+            "job.toml: branch 1: resonance_force: the force has an unknown key `phase`: `force` must be { dofs = [..], amplitude = a }, { vector = [...] }, { file = \"f.mtx\" } or { engine_order = k, amplitude = a, sector_dof = j }",
+        ),
+    ];
+    for (text, expected) in cases {
+        assert_eq!(error(&text), expected, "{text}");
+    }
+}

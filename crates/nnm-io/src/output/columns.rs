@@ -346,6 +346,24 @@ pub const POINT_COLUMNS: &[PointColumn] = &[
         }),
     },
     PointColumn {
+        name: "resonance_force",
+        unit: "force",
+        doc: "the force amplitude whose resonance peak this motion is, by energy balance with the model's damping (`resonance_force` setting; docs/method.md eq. (111)); empty if not asked, inf if the force does no work on the motion",
+        key: "resonance_force",
+        kind: Kind::Float,
+        csv: true,
+        fields: Fields::One(|p, _| p.resonance.map_or(Value::Empty, |r| float(r.amplitude))),
+    },
+    PointColumn {
+        name: "resonance_phase",
+        unit: "rad",
+        doc: "that force's phase φ: a (F_c cos(ωt + φ) + F_s sin(ωt + φ)), t from the point's z0",
+        key: "resonance_phase",
+        kind: Kind::Float,
+        csv: true,
+        fields: Fields::One(|p, _| p.resonance.map_or(Value::Empty, |r| float(r.phase))),
+    },
+    PointColumn {
         name: "energy_slope",
         unit: "energy / arclength",
         doc: "dE/ds along the branch (changes sign at a fold)",
@@ -424,6 +442,7 @@ mod tests {
                 }),
                 ratio: Some((3, 1)),
             }),
+            resonance: None,
         }
     }
 
@@ -435,7 +454,7 @@ mod tests {
         };
         assert_eq!(
             csv_header(&context).join(","),
-            "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs,label,frequency_hz,frequency_ratio,regime,partner_mode,partner_harmonic,partner_share,ratio,peak_x3,peak_x7"
+            "index,energy,frequency_rad_s,period_s,stable,max_floquet_modulus,relative_residual,iterations,step,full_period_residual,unstable_pairs,label,frequency_hz,frequency_ratio,regime,partner_mode,partner_harmonic,partner_share,ratio,peak_x3,peak_x7,resonance_force,resonance_phase"
         );
     }
 
@@ -450,7 +469,7 @@ mod tests {
         assert_eq!(row.len(), csv_header(&context).len());
         assert_eq!(
             row.join(","),
-            "4,2.5,12.566370614359172,0.5,false,NaN,3e-11,2,0.25,1e-10,0,at_energy,2,4,tongue,3,3,0.25,3:1,0.125,"
+            "4,2.5,12.566370614359172,0.5,false,NaN,3e-11,2,0.25,1e-10,0,at_energy,2,4,tongue,3,3,0.25,3:1,0.125,,,"
         );
         let bare = BranchPoint {
             label: None,

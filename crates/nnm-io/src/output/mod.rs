@@ -193,6 +193,10 @@ struct PointRecord<'a> {
     regime: Option<&'a Regime>,
     /// The largest (mode, harmonic) components of the motion by share of its energy.
     modal_content: &'a [ModalComponent],
+    /// The force of the motion's resonance peak (amplitude, phase, energy dissipated a
+    /// period), when the branch's `resonance_force` asks for it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    resonance: Option<nnm::analysis::ResonanceForce>,
 }
 
 impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
@@ -223,6 +227,7 @@ impl<'a> From<&'a BranchPoint> for PointRecord<'a> {
             peak_displacements: &p.peak_displacements,
             regime: p.regime.as_ref(),
             modal_content: &p.content,
+            resonance: p.resonance,
         }
     }
 }

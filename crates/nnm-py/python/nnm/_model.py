@@ -316,7 +316,11 @@ def backbone(
     ``jacobian``, ``half_period``, ``integrator``, ``integration_factor``,
     ``stability_tolerance``, ``events``, and ``at_energies`` / ``at_frequencies``: lists of
     values (rad/s for frequencies) that get points exactly on them, ``label`` says which;
-    docs/job-files.md "Settings"). ``branch=NAME`` instead runs a ``[[branch]]`` of the job file the
+    docs/job-files.md "Settings"). ``resonance_force`` (an :class:`nnm.Force` or its dict, e.g.
+    ``{"dofs": [0]}``; an amplitude is not needed) asks every point for the force amplitude
+    whose resonance peak it is, by energy balance with the model's damping (``Model(...,
+    damping=...)``, required): ``Branch.resonance_force`` and ``resonance_phase``
+    (docs/method.md §21). ``branch=NAME`` instead runs a ``[[branch]]`` of the job file the
     model came from, with its settings (from ``mode`` instead of the branch's own when both
     are given: what a sweep does on a mistuned disk).
 
@@ -340,6 +344,15 @@ def backbone(
     for key in ("name", "start"):
         if key in settings:
             raise TypeError(f"backbone() got an unexpected keyword argument '{key}'")
+    from ._response import Force
+
+    if isinstance(settings.get("resonance_force"), Force):
+        settings["resonance_force"] = settings["resonance_force"].to_dict()
+    if settings.get("resonance_force") is not None and model._damping is None:
+        raise ValueError(
+            "resonance_force needs the model's damping: the energy balance weighs the force's work against "
+            "what damping dissipates (nnm.Model(..., damping=...) or model.with_damping(...))"
+        )
     options = _options(energy_max, frequency_shift_max, max_points, settings)
     if pattern is not None:
         options["pattern"] = pattern
@@ -348,7 +361,7 @@ def backbone(
     described = branch if branch is not None else mode
 
     def call(observe: Any) -> dict[str, Any]:
-        return model._native.backbone(mode, options, branch, observe)
+        return model._native.backbone(mode, options, branch, observe, model._damping)
 
     return _follow(model, call, f"mode {described}", progress, callback, raise_on_failure)
 

@@ -53,6 +53,7 @@ class NativeModel:
         settings: dict[str, Any],
         branch: str | None = None,
         callback: Callable[[int, float, float, bool], Any] | None = None,
+        damping: NativeDamping | None = None,
     ) -> dict[str, Any]: ...
     def switch(
         self,

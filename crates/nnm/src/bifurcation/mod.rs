@@ -488,6 +488,7 @@ mod tests {
             peak_displacements: vec![],
             content: vec![],
             regime: None,
+            resonance: None,
         }
     }
 

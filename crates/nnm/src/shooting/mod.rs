@@ -214,6 +214,8 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     basis_modes: Vec<usize>,
     /// The dofs whose peak displacements every point records.
     output_dofs: Vec<usize>,
+    /// The damping and force whose resonance force every point reports, if asked.
+    energy_balance: Option<std::sync::Arc<crate::analysis::EnergyBalance>>,
     /// The integrator takes equal steps whose number it sets from a global error estimate
     /// (the collocation methods): the motion of a converged point is then sampled on the
     /// shooting's own step, not re-estimated for every sample (10× the cost on the beams).
@@ -431,6 +433,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             unsupported,
             basis_modes,
             output_dofs,
+            energy_balance: settings.output.energy_balance.clone(),
             equal_steps: method.is_collocation(),
         }
     }

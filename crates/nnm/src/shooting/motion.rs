@@ -1,9 +1,12 @@
 //! What a converged point's motion looks like over its period, measured with the branch's own
 //! integrator (an explicit pair would crawl through a stiff model's period): the peak
-//! displacements of the output dofs and the modal harmonic content (docs/method.md §18).
+//! displacements of the output dofs and the modal harmonic content (docs/method.md §18), and
+//! the force of the motion's resonance peak by energy balance when asked (§21).
 
 use super::{Shooting, ShootingError};
-use crate::analysis::{ModalComponent, REPORTED_SHARE, local_peak, modal_content, peak_candidates};
+use crate::analysis::{
+    ModalComponent, REPORTED_SHARE, ResonanceForce, local_peak, modal_content, peak_candidates,
+};
 use crate::integrate::Steps;
 use crate::linalg;
 use crate::model::MechanicalSystem;
@@ -28,6 +31,8 @@ pub struct Motion {
     pub peak_displacements: Vec<f64>,
     /// The largest (mode, harmonic) components, by decreasing share (eq. (84)).
     pub content: Vec<ModalComponent>,
+    /// The force whose resonance peak the motion is (eq. (111)), if the settings ask.
+    pub resonance: Option<ResonanceForce>,
 }
 
 impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
@@ -38,11 +43,13 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         if let Ok(motion) = self.motion(&point.z0, point.period) {
             point.peak_displacements = motion.peak_displacements;
             point.content = motion.content;
+            point.resonance = motion.resonance;
         }
     }
 
     /// Integrates one period from `z0` in [`MOTION_SAMPLES`] segments and measures the peak
-    /// displacements of the output dofs (eq. (87)) and the modal harmonic content (eq. (84)).
+    /// displacements of the output dofs (eq. (87)), the modal harmonic content (eq. (84)) and
+    /// the resonance force (eq. (111)) from the same samples.
     pub fn motion(&mut self, z0: &[f64], period: f64) -> Result<Motion, ShootingError> {
         let n = self.n;
         let h = period / MOTION_SAMPLES as f64;
@@ -124,9 +131,14 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
         .filter(|c| c.share >= REPORTED_SHARE)
         .take(KEPT_COMPONENTS)
         .collect();
+        let resonance = self
+            .energy_balance
+            .as_ref()
+            .map(|balance| balance.resonance(&states, 2.0 * std::f64::consts::PI / period));
         Ok(Motion {
             peak_displacements,
             content,
+            resonance,
         })
     }
 }

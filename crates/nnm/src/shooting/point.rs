@@ -49,6 +49,9 @@ pub struct BranchPoint {
     /// Backbone, tongue or another family, relative to the branch's first point (eq. (86));
     /// set by [`crate::branch`] as the branch is followed.
     pub regime: Option<crate::analysis::Regime>,
+    /// The force whose resonance peak this motion is, by energy balance (docs/method.md
+    /// eq. (111)), when the settings ask for it; measured like `peak_displacements`.
+    pub resonance: Option<crate::analysis::ResonanceForce>,
 }
 
 /// What put a point exactly where it is (the `label` column of `<branch>.csv`).
@@ -123,6 +126,7 @@ impl<S: MechanicalSystem + ?Sized> ContinuationProblem for Shooting<'_, S> {
             peak_displacements: Vec::new(),
             content: Vec::new(),
             regime: None,
+            resonance: None,
         };
         if detail == Detail::Light {
             return Ok(point);

@@ -49,6 +49,11 @@ pub struct OutputSettings {
     /// over the period is measured at every point; empty (default): the dof where the
     /// starting mode's amplitude is largest.
     pub output_dofs: Vec<usize>,
+    /// The damping and force shape whose resonance force every point reports (energy
+    /// balance, docs/method.md §21); `None`: none. Built from the model by the front end
+    /// (`[settings] resonance_force` and `[model] damping`), so no job-file key of its own.
+    #[serde(skip)]
+    pub energy_balance: Option<std::sync::Arc<crate::analysis::EnergyBalance>>,
 }
 
 impl Default for StartSettings {
