@@ -179,11 +179,7 @@ fn plot(
             x: x(&e.point),
             y: e.point.peaks.first().copied().unwrap_or(f64::NAN),
             label: String::new(),
-            shape: if e.kind == ResponseEventKind::Fold {
-                MarkerShape::Dot
-            } else {
-                MarkerShape::Diamond
-            },
+            shape: event_shape(e.kind),
         })
         .collect();
     ResponsePlot {
@@ -197,13 +193,25 @@ fn plot(
         series,
         markers,
         marker_key: format!(
-            "{} fold   {} bifurcation",
-            MarkerShape::Dot.glyph(),
-            MarkerShape::Diamond.glyph()
+            "{} fold   {} bifurcation   {} phase resonance",
+            event_shape(ResponseEventKind::Fold).glyph(),
+            event_shape(ResponseEventKind::NeimarkSacker).glyph(),
+            event_shape(ResponseEventKind::PhaseResonance).glyph()
         ),
     }
     .write(&out.join(name))?;
     Ok(())
+}
+
+/// The marker of an event on a response's figure: folds, bifurcations, phase resonances.
+fn event_shape(kind: ResponseEventKind) -> MarkerShape {
+    match kind {
+        ResponseEventKind::Fold => MarkerShape::Dot,
+        ResponseEventKind::PhaseResonance => MarkerShape::Triangle,
+        ResponseEventKind::NeimarkSacker
+        | ResponseEventKind::PeriodDoubling
+        | ResponseEventKind::BranchPoint => MarkerShape::Diamond,
+    }
 }
 
 /// One line per curve on stdout: points, folds, largest peak, time, how it ended.

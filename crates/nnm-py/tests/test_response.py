@@ -48,9 +48,23 @@ def check_linear(response, M, K, C, F, rtol):
         np.testing.assert_allclose(response.harmonic_amplitude[k], abs(X[d]), rtol=rtol)
         lag = (-np.angle(X[d]) + np.pi / 2) % (2 * np.pi) - np.pi / 2  # in (−π/2, 3π/2]
         assert abs(np.angle(np.exp(1j * (response.phase_lag[k] - lag)))) < rtol * 10
-    # Linear: every point stable, no event.
+    # Linear: every point stable, no fold or bifurcation; the phase resonances (the phase dof
+    # in quadrature with the force, eq. (113)) where the complex solve puts the lag at π/2,
+    # one for each time the points' lag crosses it.
     assert response.stable.all()
-    assert response.events == []
+    assert all(e.kind == "phase-resonance" for e in response.events)
+    # (a lag that wraps from −π/2 to 3π/2 past an antiresonance crosses nothing).
+    g = response.phase_lag - np.pi / 2
+    crossings = np.sum((g[:-1] * g[1:] < 0) & (np.abs(np.diff(g)) < np.pi))
+    assert len(response.events) == crossings
+    for e in response.events:
+        X = complex_response(M, K, C, e.force_amplitude * F, e.frequency)
+        d = response.phase_dof
+        # The event's own lag is the complex solve's at its frequency, and π/2 to the
+        # location's accuracy (a bracket of 4e-9 of the segment, where the phase turns fast).
+        lag = -np.angle(X[d])
+        assert abs(e.phase_lag - lag) < rtol * 10, e
+        assert abs(e.phase_lag - np.pi / 2) < 1e-7, e
 
 
 def test_linear_response_equals_the_complex_solve():
@@ -110,7 +124,7 @@ def test_duffing_folds_and_the_unstable_middle_branch(duffing_response):
     r = duffing_response
     assert r.stop_kind == "end"
     folds = r.folds
-    assert [e.kind for e in r.events] == ["fold", "fold"]
+    assert [e.kind for e in r.events if e.kind != "phase-resonance"] == ["fold", "fold"]
     for event, reference in zip(folds, DUFFING_FOLDS):
         assert abs(event.frequency - reference) < 1e-6, (event.frequency, reference)
         # A fold's critical multiplier is real and at +1.

@@ -59,7 +59,7 @@ def test_to_pandas_has_the_columns_of_the_csv_file(two_dof_branch) -> None:
         "index", "energy", "frequency_rad_s", "period_s", "stable", "max_floquet_modulus",
         "relative_residual", "iterations", "step", "full_period_residual", "unstable_pairs", "label",
         "frequency_hz", "frequency_ratio", "regime", "partner_mode", "partner_harmonic", "partner_share",
-        "ratio", "peak_x0",
+        "ratio", "peak_x0", "resonance_force", "resonance_phase",
     ]
     # The output dof defaults to the starting mode's largest entry: x1 of the in-phase mode (the
     # first of two equal ones). A synchronous motion's turning point is its start, so the peak

@@ -137,6 +137,8 @@ class Branch:
     partner_harmonic: np.ndarray
     partner_share: np.ndarray
     ratio: np.ndarray
+    resonance_force: np.ndarray
+    resonance_phase: np.ndarray
     missed_requests: list[dict[str, Any]]
     events: list[Event]
     stop: str

@@ -18,6 +18,7 @@ import numpy as np
 from . import _checks, _nnm
 from ._branch import Branch, _follow, _options
 from ._elements import Cubic, Polynomial, Tensor, _dofs, _matrix
+from ._force import Force
 from ._labels import _label, _parse_label
 
 if TYPE_CHECKING:
@@ -344,8 +345,6 @@ def backbone(
     for key in ("name", "start"):
         if key in settings:
             raise TypeError(f"backbone() got an unexpected keyword argument '{key}'")
-    from ._response import Force
-
     if isinstance(settings.get("resonance_force"), Force):
         settings["resonance_force"] = settings["resonance_force"].to_dict()
     if settings.get("resonance_force") is not None and model._damping is None:

@@ -9,6 +9,10 @@
 //!   circle: the count of multipliers outside it changes. Located on `|μ_c| − 1`, `μ_c` the
 //!   multiplier of that kind nearest the circle. A real multiplier crossing `+1` at a fold
 //!   is the fold itself, not a separate event.
+//! - A **phase resonance** is where the first harmonic of the response at the phase dof lags
+//!   the force by a quarter period (`φ = π/2`, eq. (113)): the peak of a lightly damped
+//!   single-mode resonance, on the backbone to first order in the damping. Located on
+//!   `φ − π/2` with trial points that measure the motion (the phase is not known otherwise).
 
 use crate::continuation::{ContinuationProblem, Detail, EventDetector, Segment};
 use crate::linalg::Complex;
@@ -30,6 +34,8 @@ pub enum ResponseEventKind {
     /// A multiplier crosses `+1` away from a fold: another branch of periodic responses
     /// crosses this one (a symmetry-breaking branch point).
     BranchPoint,
+    /// The response's first harmonic lags the force by `π/2` (eq. (113)).
+    PhaseResonance,
 }
 
 impl ResponseEventKind {
@@ -40,6 +46,7 @@ impl ResponseEventKind {
             ResponseEventKind::NeimarkSacker => "neimark-sacker",
             ResponseEventKind::PeriodDoubling => "period-doubling",
             ResponseEventKind::BranchPoint => "branch-point",
+            ResponseEventKind::PhaseResonance => "phase-resonance",
         }
     }
 }
@@ -51,7 +58,8 @@ pub struct ResponseEvent {
     pub kind: ResponseEventKind,
     /// The point where it was located (peaks included).
     pub point: ResponsePoint,
-    /// The critical multiplier there (for a fold: the real one nearest `+1`).
+    /// The critical multiplier there (for a fold: the real one nearest `+1`; for a phase
+    /// resonance: the largest in modulus, which says whether it is stable).
     pub critical_multiplier: Complex,
 }
 
@@ -72,6 +80,7 @@ fn of_kind(kind: ResponseEventKind, m: Complex) -> bool {
         ResponseEventKind::NeimarkSacker => complex,
         ResponseEventKind::PeriodDoubling => !complex && m.0 < 0.0,
         ResponseEventKind::BranchPoint | ResponseEventKind::Fold => !complex && m.0 > 0.0,
+        ResponseEventKind::PhaseResonance => true,
     }
 }
 
@@ -131,12 +140,14 @@ impl ResponseEvents {
     /// Locates a zero of `located` on the segment, from its ends' values: a fold's first
     /// trial by eq. (102c), every other trial by regula falsi in the arclength with the
     /// Anderson–Björck modification. Stops when `|value| ≤ accuracy` or the bracket is
-    /// below four billionths of the segment.
+    /// below four billionths of the segment. `trials`: what the trial points measure (the
+    /// multipliers always; the motion too when the located value needs it).
     fn locate<P>(
         &self,
         segment: &mut Segment<'_, P>,
         located: Located<'_>,
         accuracy: f64,
+        trials: Detail,
     ) -> Option<ResponsePoint>
     where
         P: ContinuationProblem<Point = ResponsePoint>,
@@ -188,7 +199,7 @@ impl ResponseEvents {
             } else {
                 0.5 * (a + b)
             };
-            let point = segment.point_at(s, Detail::Light, 0.1).ok()?;
+            let point = segment.point_at(s, trials, 0.1).ok()?;
             segment.add_location_steps(1);
             let f = value(&point);
             best = Some(point);
@@ -244,7 +255,7 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<ForcedShooting<'_, '_, S>> for 
             // slope — and `p` off by `5e-7·tolerance/κ` (scaled units, κ of order one on a
             // resolved curve).
             let accuracy = 1e-3 * self.tolerance.sqrt();
-            if let Some(point) = self.locate(segment, Located::Turn, accuracy) {
+            if let Some(point) = self.locate(segment, Located::Turn, accuracy, Detail::Light) {
                 let critical_multiplier =
                     critical(&point, ResponseEventKind::Fold).map_or((1.0, 0.0), |c| c.1);
                 events.push(ResponseEvent {
@@ -272,7 +283,12 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<ForcedShooting<'_, '_, S>> for 
             if !bracketed {
                 continue;
             }
-            if let Some(point) = self.locate(segment, Located::Zero(&value), self.tolerance) {
+            if let Some(point) = self.locate(
+                segment,
+                Located::Zero(&value),
+                self.tolerance,
+                Detail::Light,
+            ) {
                 let critical_multiplier = critical(&point, kind).map_or((f64::NAN, 0.0), |c| c.1);
                 events.push(ResponseEvent {
                     kind,
@@ -280,6 +296,30 @@ impl<S: MechanicalSystem + ?Sized> EventDetector<ForcedShooting<'_, '_, S>> for 
                     critical_multiplier,
                 });
             }
+        }
+        // Phase resonance: `φ − π/2` changes sign continuously. The lag is kept in
+        // `(−π/2, 3π/2]`: where it wraps, at `−π/2` (a response in phase opposition with its
+        // force beyond an antiresonance), `φ − π/2` jumps from `−π` to `π` — no crossing.
+        // Located to `tolerance` in the phase: near a resonance of damping ratio ζ the phase
+        // moves by `~1/ζ` per relative frequency, so the frequency is placed to
+        // `ζ · tolerance`.
+        let quadrature = |p: &ResponsePoint| p.phase_lag - std::f64::consts::FRAC_PI_2;
+        let (before, after) = (quadrature(&previous), quadrature(&next));
+        if before * after < 0.0
+            && (after - before).abs() < std::f64::consts::PI
+            && let Some(point) = self.locate(
+                segment,
+                Located::Zero(&quadrature),
+                self.tolerance,
+                Detail::Full,
+            )
+        {
+            let critical_multiplier = point.multipliers.first().copied().unwrap_or((0.0, 0.0));
+            events.push(ResponseEvent {
+                kind: ResponseEventKind::PhaseResonance,
+                point,
+                critical_multiplier,
+            });
         }
         events.sort_by(|a, b| a.point.step.total_cmp(&b.point.step));
         events

@@ -438,7 +438,10 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedShooting<'s, 'a, S> {
             let mut peak = x.iter().fold(0.0f64, |m, a| m.max(a.abs()));
             for (j, delay) in crate::analysis::peak_candidates(&x, &v, dt) {
                 let tau = j as f64 * 2.0 * std::f64::consts::PI / count as f64;
-                let z = if delay > 0.0 {
+                // A peak on a sample (a response in exact quadrature peaks at T/4, sample
+                // N/4) leaves a delay of round-off: integrating that would hand the next
+                // integration a first step of ~1e-17 of the period, which underflows.
+                let z = if delay > 1e-12 * dt {
                     self.integrator
                         .advance(&states[j], tau, delay * drive.frequency, drive)?
                 } else {

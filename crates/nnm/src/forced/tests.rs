@@ -81,11 +81,18 @@ fn linear_curve(method: IntegrationMethod) {
         "largest relative error {worst:e} ({})",
         curve.integrator
     );
-    assert!(
-        curve.events.is_empty(),
-        "{:?}",
-        curve.events.iter().map(|e| e.kind).collect::<Vec<_>>()
-    );
+    // No fold or bifurcation; phase resonances (eq. (113)) where the exact response of the
+    // forced dof is in quadrature with the force, `X₀ = −i|X₀|`, to the location's accuracy.
+    assert!(!curve.events.is_empty());
+    for event in &curve.events {
+        assert_eq!(event.kind, ResponseEventKind::PhaseResonance);
+        let x = exact_two_dof(k, c, 0.01, event.point.frequency)[0];
+        assert!(
+            x.0.abs() < 1e-7 * x.1.abs() && x.1 < 0.0,
+            "{x:?} at {}",
+            event.point.frequency
+        );
+    }
     // The curve passes both resonances (ω = 1 and √3) and lands on the end of the sweep.
     let last = curve.points.last().unwrap().frequency;
     assert!((last - 2.0).abs() < 1e-6, "last point at {last}");

@@ -211,9 +211,11 @@ impl<'s, 'a, S: MechanicalSystem + ?Sized> ForcedRungeKutta<'s, 'a, S> {
         let mut stats = IntegrationStats::default();
         let mut steps = Vec::new();
         let mut tau = 0.0;
+        // The last integration's first step, unless it was far shorter than this span (a
+        // short advance to a peak would otherwise start a whole period underflowing).
         let mut h = self
             .first_step
-            .filter(|h| *h > 0.0 && *h < span)
+            .filter(|h| *h > 1e-10 * span && *h < span)
             .unwrap_or(span / 100.0);
         let mut last_rejected = false;
         let result = loop {
