@@ -10,6 +10,7 @@ mod interrupt;
 mod modes;
 mod out_dir;
 mod progress;
+mod resonance;
 mod response;
 mod run;
 mod study;

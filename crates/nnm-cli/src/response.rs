@@ -18,6 +18,7 @@ use nnm_plot::{Marker, MarkerShape, ResponsePlot, ResponseSeries};
 
 use crate::interrupt;
 use crate::progress::say;
+use crate::resonance::{Backbone, ComputedBranch};
 
 /// How one curve went.
 pub struct CurveOutcome {
@@ -27,13 +28,19 @@ pub struct CurveOutcome {
     /// The curve, or why it could not start (`None` when an interrupt came before it).
     pub result: Option<Result<ResponseCurve, String>>,
     pub seconds: f64,
+    /// The job's branch that is the backbone of this resonance, if one is (docs/method.md
+    /// §21).
+    pub backbone: Option<Backbone>,
 }
 
-/// Computes every response of a job into `out`, in the order of the file.
+/// Computes every response of a job into `out`, in the order of the file; `branches`, the
+/// job's computed branches, give each frequency sweep its backbone (figure, summary and the
+/// `backbone_peak` of phase resonances).
 pub fn run_responses(
     structure: &Structure,
     damping: &Matrix,
     responses: &[ResponseJob],
+    branches: &[ComputedBranch<'_>],
     out: &Path,
 ) -> Result<Vec<CurveOutcome>> {
     let mut outcomes = Vec::new();
@@ -44,7 +51,12 @@ pub fn run_responses(
             ResponseWriter::create(out, &response.name, &body.output_dofs, &body.force)
         })?;
         let mut curves: Vec<(Sweep, ResponseCurve)> = Vec::new();
+        let first_outcome = outcomes.len();
         for (k, sweep) in body.curves.iter().enumerate() {
+            let backbone = body
+                .output_dofs
+                .first()
+                .and_then(|&dof| Backbone::find(branches, sweep, dof, &body.force));
             if interrupt::requested() {
                 outcomes.push(CurveOutcome {
                     response: response.name.clone(),
@@ -52,6 +64,7 @@ pub fn run_responses(
                     sweep: *sweep,
                     result: None,
                     seconds: 0.0,
+                    backbone,
                 });
                 continue;
             }
@@ -61,7 +74,14 @@ pub fn run_responses(
             let observer = |item: &ResponseItem| {
                 let written = interrupt::writing(|| match item {
                     Item::Point(p) => writer.write_point(k, p),
-                    Item::Event(e) => writer.write_event(k, e),
+                    Item::Event(e) => writer.write_event(
+                        k,
+                        e,
+                        backbone
+                            .as_ref()
+                            .filter(|_| e.kind == ResponseEventKind::PhaseResonance)
+                            .and_then(|b| b.peak_at(e.point.frequency)),
+                    ),
                 });
                 if let Err(e) = written {
                     error = Some(e);
@@ -125,6 +145,7 @@ pub fn run_responses(
                 sweep: *sweep,
                 result: Some(result),
                 seconds,
+                backbone,
             });
         }
         interrupt::writing(|| writer.finish())?;
@@ -132,6 +153,9 @@ pub fn run_responses(
             &response.name,
             body.output_dofs.first().copied(),
             &curves,
+            outcomes[first_outcome..]
+                .iter()
+                .find_map(|o| o.backbone.as_ref()),
             out,
         )?;
     }
@@ -139,11 +163,13 @@ pub fn run_responses(
 }
 
 /// `<name>.png` and `.svg`: the peak of the first output dof against the frequency (or the
-/// force amplitude), a curve per level, unstable dashed, folds marked.
+/// force amplitude), a curve per level, unstable dashed, events marked; with a `backbone`, the
+/// backbone within the sweep and the peak energy balance predicts for each level.
 fn plot(
     name: &str,
     dof: Option<usize>,
     curves: &[(Sweep, ResponseCurve)],
+    backbone: Option<&Backbone>,
     out: &Path,
 ) -> Result<()> {
     let Some(dof) = dof else { return Ok(()) };
@@ -158,7 +184,7 @@ fn plot(
             p.frequency
         }
     };
-    let series = curves
+    let mut series: Vec<ResponseSeries> = curves
         .iter()
         .map(|(sweep, c)| ResponseSeries {
             label: match *sweep {
@@ -170,9 +196,10 @@ fn plot(
                 .iter()
                 .map(|p| (x(p), p.peaks.first().copied().unwrap_or(f64::NAN), p.stable))
                 .collect(),
+            color: None,
         })
         .collect();
-    let markers = curves
+    let mut markers: Vec<Marker> = curves
         .iter()
         .flat_map(|(_, c)| &c.events)
         .map(|e| Marker {
@@ -182,6 +209,33 @@ fn plot(
             shape: event_shape(e.kind),
         })
         .collect();
+    let mut key = format!(
+        "{} fold   {} bifurcation   {} phase resonance",
+        event_shape(ResponseEventKind::Fold).glyph(),
+        event_shape(ResponseEventKind::NeimarkSacker).glyph(),
+        event_shape(ResponseEventKind::PhaseResonance).glyph()
+    );
+    if let Some(backbone) = backbone {
+        let (from, to) = curves[0].0.range();
+        series.push(backbone.series(from, to));
+        let predicted: Vec<Marker> = curves
+            .iter()
+            .filter_map(|(sweep, _)| match *sweep {
+                Sweep::Frequency { amplitude, .. } => backbone.predicted_peak(amplitude),
+                Sweep::Amplitude { .. } => None,
+            })
+            .map(|(frequency, peak)| Marker {
+                x: frequency,
+                y: peak,
+                label: String::new(),
+                shape: PREDICTED_PEAK,
+            })
+            .collect();
+        if !predicted.is_empty() {
+            key += &format!("   {} energy balance", PREDICTED_PEAK.glyph());
+        }
+        markers.extend(predicted);
+    }
     ResponsePlot {
         title: format!("Forced response `{name}`"),
         x_label: if in_amplitude {
@@ -192,16 +246,14 @@ fn plot(
         y_label: format!("peak of x{dof}"),
         series,
         markers,
-        marker_key: format!(
-            "{} fold   {} bifurcation   {} phase resonance",
-            event_shape(ResponseEventKind::Fold).glyph(),
-            event_shape(ResponseEventKind::NeimarkSacker).glyph(),
-            event_shape(ResponseEventKind::PhaseResonance).glyph()
-        ),
+        marker_key: key,
     }
     .write(&out.join(name))?;
     Ok(())
 }
+
+/// The marker of a resonance peak predicted by energy balance (docs/method.md eq. (111c)).
+const PREDICTED_PEAK: MarkerShape = MarkerShape::Ring;
 
 /// The marker of an event on a response's figure: folds, bifurcations, phase resonances.
 fn event_shape(kind: ResponseEventKind) -> MarkerShape {
@@ -261,6 +313,48 @@ pub fn print_summary(outcomes: &[CurveOutcome]) {
                 );
             }
         }
+    }
+    for o in outcomes {
+        if let (Some(backbone), Some(Ok(curve))) = (&o.backbone, &o.result) {
+            print_resonance(o, curve, backbone);
+        }
+    }
+}
+
+/// The lines under the summary that set a curve beside its backbone (docs/method.md §21): the
+/// peak energy balance predicts for its level, and each phase resonance with the backbone's
+/// peak at its frequency (interpolated between the branch's points).
+fn print_resonance(o: &CurveOutcome, curve: &ResponseCurve, backbone: &Backbone) {
+    let level = match o.sweep {
+        Sweep::Frequency { amplitude, .. } => format!("a = {amplitude}"),
+        Sweep::Amplitude { frequency, .. } => format!("Ω = {frequency} rad/s"),
+    };
+    println!(
+        "{} curve {} ({level}) beside backbone `{}`:",
+        o.response, o.curve, backbone.name
+    );
+    if let Sweep::Frequency { amplitude, .. } = o.sweep
+        && let Some((frequency, peak)) = backbone.predicted_peak(amplitude)
+    {
+        println!("  energy-balance peak {peak:.6e} at {frequency:.6} rad/s");
+    }
+    for e in curve
+        .events
+        .iter()
+        .filter(|e| e.kind == ResponseEventKind::PhaseResonance)
+    {
+        let Some(&peak) = e.point.peaks.first() else {
+            continue;
+        };
+        let beside = backbone
+            .peak_at(e.point.frequency)
+            .map_or(String::new(), |on| {
+                format!("; the backbone there {on:.6e} ({:+.1e})", peak / on - 1.0)
+            });
+        println!(
+            "  phase resonance     {peak:.6e} at {:.6} rad/s{beside}",
+            e.point.frequency
+        );
     }
 }
 

@@ -15,6 +15,7 @@ use crate::exit::Unfinished;
 use crate::fep;
 use crate::out_dir::{OutDir, foreign_branches};
 use crate::progress::say;
+use crate::resonance::ComputedBranch;
 use crate::response;
 use crate::vtk::VtkPoints;
 
@@ -57,6 +58,23 @@ pub fn run_job(
         fep::plot(&outcomes, &modes, &out.join("fep"), "Frequency-energy plot")?;
         fep::amplitude_plot(&outcomes, &modes, &out.join("amplitude"))?;
     }
+    // The computed branches, where a response looks for its backbone.
+    let computed: Vec<ComputedBranch<'_>> = outcomes
+        .iter()
+        .filter_map(|o| {
+            let branch = o.result.as_ref().ok()?;
+            let job = job.branches.iter().find(|b| b.name == o.info.name)?;
+            Some(ComputedBranch {
+                name: &o.info.name,
+                output_dofs: &o.info.output_dofs,
+                points: &branch.points,
+                balance: job.settings.output.energy_balance.as_deref(),
+            })
+        })
+        .collect();
+    for branch in &computed {
+        crate::resonance::plot_resonance_peaks(branch, out)?;
+    }
     let curves = match &job.damping {
         Some(damping) if !job.responses.is_empty() => {
             // One curve at a time; `threads` bounds what a large model's stage solves share.
@@ -64,7 +82,9 @@ pub fn run_job(
                 .num_threads(threads.unwrap_or(0))
                 .build()
                 .context("cannot start worker threads")?
-                .install(|| response::run_responses(&job.structure, damping, &job.responses, out))?
+                .install(|| {
+                    response::run_responses(&job.structure, damping, &job.responses, &computed, out)
+                })?
         }
         _ => Vec::new(),
     };

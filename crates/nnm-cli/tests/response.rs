@@ -8,7 +8,8 @@ use common::{nnm, scratch, write};
 /// `examples/forced-duffing.toml` (x'' + 0.02 x' + x + x³ = a cos Ωt): the curve at a = 0.1
 /// folds where an independent harmonic-balance computation (many harmonics, its own Newton and
 /// arclength continuation, in crates/nnm's tests) puts the folds — Ω = 2.2115438 and
-/// 1.1701620 — and the middle branch between them, on the way back down in Ω, is unstable.
+/// 1.1701620 — and the middle branch between them, on the way back down in Ω, is unstable;
+/// each curve's phase resonance lies on the example's backbone.
 #[test]
 fn forced_duffing_folds_where_harmonic_balance_puts_them() {
     let dir = scratch("forced-duffing");
@@ -38,13 +39,32 @@ fn forced_duffing_folds_where_harmonic_balance_puts_them() {
     let mut lines = events.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "curve,type,frequency_rad_s,force_amplitude,peak_x0,critical_multiplier_re,critical_multiplier_im,critical_multiplier_modulus"
+        "curve,type,frequency_rad_s,force_amplitude,peak_x0,critical_multiplier_re,critical_multiplier_im,critical_multiplier_modulus,backbone_peak"
     );
-    let folds: Vec<f64> = lines
-        .map(|l| l.split(',').collect::<Vec<_>>())
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let folds: Vec<f64> = rows
+        .iter()
         .filter(|f| f[0] == "1" && f[1] == "fold")
         .map(|f| f[2].parse().unwrap())
         .collect();
+    // Each curve is in phase resonance once, just below its upper fold, on the example's
+    // backbone: its peak equals the backbone's at that frequency (interpolated between the
+    // branch's 29 points, to ~2e-5 here; docs/method.md §21).
+    for curve in ["0", "1"] {
+        let resonance: Vec<&Vec<&str>> = rows
+            .iter()
+            .filter(|f| f[0] == curve && f[1] == "phase-resonance")
+            .collect();
+        assert_eq!(resonance.len(), 1, "{events}");
+        let (peak, on): (f64, f64) = (
+            resonance[0][4].parse().unwrap(),
+            resonance[0][8].parse().unwrap(),
+        );
+        assert!((peak / on - 1.0).abs() < 1e-4, "{peak} vs {on}");
+    }
+    for file in ["backbone.resonance.png", "backbone.resonance.svg"] {
+        assert!(out.join(file).exists(), "{file} missing");
+    }
     assert_eq!(folds.len(), 2, "{events}");
     let (upper, lower) = (2.2115438, 1.1701620);
     assert!((folds[0] - upper).abs() < 1e-6, "{folds:?}");

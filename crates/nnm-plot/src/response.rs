@@ -14,6 +14,8 @@ pub struct ResponseSeries {
     pub label: String,
     /// `(x, y, stable)` in continuation order: a curve may run back in `x` between folds.
     pub points: Vec<(f64, f64, bool)>,
+    /// Its colour; `None`: the palette's next.
+    pub color: Option<(u8, u8, u8)>,
 }
 
 /// Response curves on linear axes: solid where stable, dashed where unstable (a segment is
@@ -44,7 +46,7 @@ impl ResponsePlot {
                 label: &s.label,
                 legend_dashed: false,
                 reference: false,
-                color: None,
+                color: s.color,
                 width: None,
                 pieces: pieces(&s.points),
             })

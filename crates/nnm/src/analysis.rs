@@ -5,10 +5,12 @@
 //! (energy balance).
 
 mod energy_balance;
+mod interpolate;
 mod peak;
 mod regime;
 
 pub use energy_balance::{EnergyBalance, ResonanceForce};
+pub use interpolate::{first_reached, value_at};
 pub use peak::{local_peak, peak_candidates};
 pub use regime::{
     HOME_SHARE, Home, ModalComponent, NEAR_DEGENERATE, REPORTED_SHARE, RESONANCE_WINDOW, Regime,

@@ -1032,7 +1032,7 @@ fn branches_whose_files_collide_are_refused() {
     assert_eq!(parsed.branches.len(), 6);
 
     let longest = "x".repeat(MAX_BRANCH_NAME);
-    assert_eq!(MAX_BRANCH_NAME + ".events.csv".len(), 255);
+    assert_eq!(MAX_BRANCH_NAME + ".resonance.png".len(), 255);
     assert!(parse(&job(&[&longest])).is_ok());
     let too_long = "x".repeat(MAX_BRANCH_NAME + 1);
     assert_eq!(

@@ -339,9 +339,17 @@ fn events_tail(events: &str) -> String {
 }
 
 /// What a branch writes besides its name: `<name>.csv`, `<name>.json` (rewritten through
-/// `<name>.json.tmp`) and `<name>.events.csv`. A job's branches are checked against these
+/// `<name>.json.tmp`), `<name>.events.csv`, and with `resonance_force` the figure of its
+/// resonance peaks `<name>.resonance.png` / `.svg`. A job's branches are checked against these
 /// before anything runs, so no two branches' files can be one file.
-pub const BRANCH_FILE_SUFFIXES: [&str; 4] = [".csv", ".json", ".json.tmp", ".events.csv"];
+pub const BRANCH_FILE_SUFFIXES: [&str; 6] = [
+    ".csv",
+    ".json",
+    ".json.tmp",
+    ".events.csv",
+    ".resonance.png",
+    ".resonance.svg",
+];
 
 /// The files `nnm run` writes into its output folder beside the branches' (and its lock,
 /// `.nnm.lock`): no branch may write one of them.

@@ -214,7 +214,7 @@ pub fn response_csv_record(p: &ResponsePoint, context: &ResponseContext<'_>) -> 
 
 /// Columns of a response's `<name>.events.csv`; `peak_x<d>` is the peak of the first output
 /// dof.
-pub const RESPONSE_EVENTS_HEADER: &str = "curve,type,frequency_rad_s,force_amplitude,peak_x<d>,critical_multiplier_re,critical_multiplier_im,critical_multiplier_modulus";
+pub const RESPONSE_EVENTS_HEADER: &str = "curve,type,frequency_rad_s,force_amplitude,peak_x<d>,critical_multiplier_re,critical_multiplier_im,critical_multiplier_modulus,backbone_peak";
 
 /// What a response writes besides its name; a job's names are checked against these (and the
 /// branches' files) before anything runs.
@@ -282,6 +282,9 @@ struct EventRecord<'a> {
     /// The event lies after this point of its curve.
     after_point: usize,
     critical_multiplier: [f64; 2],
+    /// The peak on a backbone of the job at the event's frequency (phase resonances).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    backbone_peak: Option<f64>,
     point: PointRecord<'a>,
 }
 
@@ -480,8 +483,15 @@ impl ResponseWriter {
         Ok(())
     }
 
-    /// Appends one located event of curve `curve`.
-    pub fn write_event(&mut self, curve: usize, e: &ResponseEvent) -> Result<(), OutputError> {
+    /// Appends one located event of curve `curve`; `backbone_peak`: the peak of the first
+    /// output dof on a backbone of the job at the event's frequency, if one is beside it
+    /// (written for phase resonances).
+    pub fn write_event(
+        &mut self,
+        curve: usize,
+        e: &ResponseEvent,
+        backbone_peak: Option<f64>,
+    ) -> Result<(), OutputError> {
         let (re, im) = e.critical_multiplier;
         let record = [
             curve.to_string(),
@@ -495,6 +505,7 @@ impl ResponseWriter {
             Number(re).to_string(),
             Number(im).to_string(),
             Number(re.hypot(im)).to_string(),
+            backbone_peak.map_or(String::new(), |x| Number(x).to_string()),
         ];
         self.events_csv.append(&record)?;
         let record = serde_json::to_string(&EventRecord {
@@ -502,6 +513,7 @@ impl ResponseWriter {
             kind: e.kind.name(),
             after_point: e.point.index,
             critical_multiplier: [re, im],
+            backbone_peak,
             point: PointRecord::new(curve, &e.point),
         })
         .expect("serialisable");

@@ -58,6 +58,11 @@ impl EnergyBalance {
         self.force.cosine.len()
     }
 
+    /// The force shape (unit amplitude): whether a forced curve's force is this one.
+    pub fn force(&self) -> &HarmonicForce {
+        &self.force
+    }
+
     /// The resonance force of a motion of angular frequency `omega` sampled at `N` equally
     /// spaced instants of one period, `states[k] = [x; v](kT/N)`, `k = 0..N` (the period's end
     /// not repeated). The trapezoidal rule on a periodic integrand is exact for the harmonics
