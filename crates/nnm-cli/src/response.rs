@@ -165,7 +165,7 @@ pub fn run_responses(
 /// `<name>.png` and `.svg`: the peak of the first output dof against the frequency (or the
 /// force amplitude), a curve per level, unstable dashed, events marked; with a `backbone`, the
 /// backbone within the sweep and the peak energy balance predicts for each level.
-fn plot(
+pub(crate) fn plot(
     name: &str,
     dof: Option<usize>,
     curves: &[(Sweep, ResponseCurve)],
@@ -188,8 +188,8 @@ fn plot(
         .iter()
         .map(|(sweep, c)| ResponseSeries {
             label: match *sweep {
-                Sweep::Frequency { amplitude, .. } => format!("a = {amplitude}"),
-                Sweep::Amplitude { frequency, .. } => format!("Ω = {frequency} rad/s"),
+                Sweep::Frequency { amplitude, .. } => format!("a = {}", short(amplitude)),
+                Sweep::Amplitude { frequency, .. } => format!("Ω = {} rad/s", short(frequency)),
             },
             points: c
                 .points
@@ -250,6 +250,17 @@ fn plot(
     }
     .write(&out.join(name))?;
     Ok(())
+}
+
+/// A level for a legend: as written when short (`0.05`), else to five significant digits (a
+/// level computed from a backbone, `3.4608e-3`).
+fn short(value: f64) -> String {
+    let written = value.to_string();
+    if written.len() <= 8 {
+        written
+    } else {
+        format!("{value:.4e}")
+    }
 }
 
 /// The marker of a resonance peak predicted by energy balance (docs/method.md eq. (111c)).

@@ -648,7 +648,7 @@ fn branch_settings_wrong_for_the_model_are_refused_before_any_branch_starts() {
         ),
         (
             job(&long, 1, "energy_max = 1.0"),
-            "branch 2: name `xxxxxxxxxxxxxxxx...` has 245 characters, more than the 244",
+            "branch 2: name `xxxxxxxxxxxxxxxx...` has 245 characters, more than the 241",
         ),
         (
             job("d", 1, "energy_max = 1.0\noutput_dofs = [1, 1]"),

@@ -1,6 +1,7 @@
 //! The bladed-disk study of the paper (docs/method.md §11), end to end: linear modes, every backbone,
 //! similar vs nonsimilar modes, localization along (1,14), the bifurcations along the
-//! backbones, the travelling waves of (1,5) and (1,14), the 3:1 tongue between (0,6) and
+//! backbones, the travelling waves of (1,5) and (1,14), the forced resonance of (1,5) under
+//! engine order 5 beside its backbone's energy balance, the 3:1 tongue between (0,6) and
 //! (1,12), the sensitivity / finite-difference cost comparison, figures and `report.md`.
 //!
 //! Numerics and output are kept apart so that rewording the report or redrawing a figure never
@@ -27,9 +28,11 @@ use report::Report;
 mod backbones;
 mod bifurcations;
 mod figures;
+mod forced;
 mod junction;
 mod localization;
 mod report;
+mod report_forced;
 mod report_tongue;
 mod report_travelling;
 mod similarity;
@@ -112,6 +115,15 @@ pub fn bladed_disk_study(job_path: &Path, out: &Path, options: &StudyOptions) ->
     )?;
     figures::travelling(&travelling, &backbones, out)?;
     report.travelling(&travelling);
+
+    // The forced resonance of (1,5): its travelling backbone's energy balance, three curves.
+    let forced = section(
+        &mut report,
+        out,
+        clock,
+        forced::compute(structure, &modes, settings, out),
+    )?;
+    report.forced(&forced);
 
     // 5. The 3:1 tongue, with sensitivities, checked against (1,12).
     let tongue_with =

@@ -309,8 +309,14 @@ const fn longest_suffix() -> usize {
 fn check_name_length(name: &str) -> Result<(), String> {
     if name.len() > MAX_BRANCH_NAME {
         let start: String = name.chars().take(16).collect();
+        // The first of the longest (`max_by_key` keeps the last of equals).
+        let longest = BRANCH_FILE_SUFFIXES
+            .iter()
+            .rev()
+            .max_by_key(|s| s.len())
+            .expect("suffixes");
         return Err(format!(
-            "name `{start}...` has {} characters, more than the {MAX_BRANCH_NAME} that leave room for its files' suffixes (`.events.csv`) in a file name",
+            "name `{start}...` has {} characters, more than the {MAX_BRANCH_NAME} that leave room for its files' suffixes (`{longest}`) in a file name",
             name.len()
         ));
     }

@@ -1037,7 +1037,7 @@ fn branches_whose_files_collide_are_refused() {
     let too_long = "x".repeat(MAX_BRANCH_NAME + 1);
     assert_eq!(
         error(&job(&[&too_long])),
-        "job.toml: branch 1: name `xxxxxxxxxxxxxxxx...` has 245 characters, more than the 244 that leave room for its files' suffixes (`.events.csv`) in a file name"
+        "job.toml: branch 1: name `xxxxxxxxxxxxxxxx...` has 242 characters, more than the 241 that leave room for its files' suffixes (`.resonance.png`) in a file name"
     );
 }
 

@@ -55,6 +55,12 @@ pub fn first_reached(s_points: &[f64], y_points: &[f64], target: f64) -> Option<
     let f = |s: f64| cubic(s_points, y_points, i, s) - target;
     let (mut a, mut b) = (s_points[i], s_points[i + 1]);
     let mut fa = y_points[i] - target;
+    if fa == 0.0 {
+        return Some(a);
+    }
+    if y_points[i + 1] == target {
+        return Some(b);
+    }
     for _ in 0..100 {
         let m = 0.5 * (a + b);
         let fm = f(m);
