@@ -31,6 +31,8 @@ pub struct NativeModel {
     layout: Option<Layout>,
     /// The `[[branch]]` entries of the job file (empty for other models).
     branches: Vec<BranchJob>,
+    /// The `[[response]]` tables of the job file as written (`ResponseJob::table`), by name.
+    responses: Vec<(String, toml::Table)>,
     /// The dofs removed from the model given (`fixed_dofs`): a damping matrix is given in the
     /// full numbering, as `mass` and `stiffness` are.
     pub(crate) fixed: Option<FixedDofs>,
@@ -67,6 +69,7 @@ impl NativeModel {
             family: built.family,
             layout: built.layout,
             branches: Vec::new(),
+            responses: Vec::new(),
             fixed: None,
             job_damping: None,
         })
@@ -98,6 +101,11 @@ impl NativeModel {
             family: job.family,
             layout: job.layout,
             branches: job.branches,
+            responses: job
+                .responses
+                .into_iter()
+                .map(|r| (r.name, r.table))
+                .collect(),
             fixed: job.fixed_dofs,
             job_damping: job.damping_spec.zip(job.damping),
         })
@@ -143,6 +151,7 @@ impl NativeModel {
             family: "general".into(),
             layout: None,
             branches: Vec::new(),
+            responses: Vec::new(),
             fixed,
             job_damping: None,
         })
@@ -228,6 +237,41 @@ impl NativeModel {
                     .map_err(|e| PyOSError::new_err(e.to_string()))
             })
         })
+    }
+
+    /// The names of the job file's responses.
+    #[getter]
+    fn response_names(&self) -> Vec<String> {
+        self.responses
+            .iter()
+            .map(|(name, _)| name.clone())
+            .collect()
+    }
+
+    /// The job file's `[[response]]` `name` as written (without `name`; a force `file` made
+    /// absolute), for `Model.response` to run through `nnm.frequency_response`; a
+    /// `ValueError` naming the job's responses when it has no such one.
+    fn job_response<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        let (_, table) = self
+            .responses
+            .iter()
+            .find(|(n, _)| n == name)
+            .ok_or_else(|| {
+                let names: Vec<String> = self
+                    .responses
+                    .iter()
+                    .map(|(n, _)| format!("`{n}`"))
+                    .collect();
+                PyValueError::new_err(format!(
+                    "the job has no response `{name}` (its responses: {})",
+                    if names.is_empty() {
+                        "none".into()
+                    } else {
+                        names.join(", ")
+                    }
+                ))
+            })?;
+        convert::from_toml(py, &toml::Value::Table(table.clone()))
     }
 
     /// The names of the job file's branches.

@@ -496,3 +496,25 @@ def test_ctrl_c_stops_between_points_and_keeps_them():
     assert partial.stop_kind == "interrupted"
     assert 0 < len(partial) < 100000
     assert partial.frequency[0] == 0.5
+
+
+def test_a_jobs_response_runs_on_its_model_as_written():
+    """``nnm.job_response`` is the job's ``[[response]]`` table handed to
+    ``frequency_response``: the same curves, point for point, as the call written out; an
+    unknown name lists the job's responses."""
+    from pathlib import Path
+
+    job = Path(__file__).resolve().parents[3] / "examples" / "forced-duffing.toml"
+    model = nnm.Model.from_job(job)
+    assert model.responses == ["frc"]
+    from_job = nnm.job_response(model, "frc", progress=False)
+    written = nnm.frequency_response(
+        model, {"dofs": [0], "amplitude": 0.1}, (0.5, 3.5), amplitudes=[0.05, 0.1], progress=False
+    )
+    assert len(from_job) == len(written) == 2
+    for a, b in zip(from_job, written):
+        np.testing.assert_array_equal(a.frequency, b.frequency)
+        np.testing.assert_array_equal(a.peaks, b.peaks)
+        assert [e.kind for e in a.events] == [e.kind for e in b.events]
+    with pytest.raises(ValueError, match=r"^the job has no response `nope` \(its responses: `frc`\)$"):
+        nnm.job_response(model, "nope")

@@ -241,9 +241,14 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
         if let Some(m) = file_collision(("response", &name), &earlier) {
             return Err(invalid(m));
         }
+        let written = with_absolute_force_file(&table, base);
         let body = response_body(table, &structure, damping.as_ref(), fixed.as_ref(), base)
             .map_err(|m| invalid(format!("response `{name}`: {m}")))?;
-        responses.push(ResponseJob { name, body });
+        responses.push(ResponseJob {
+            name,
+            body,
+            table: written,
+        });
     }
     Ok(Job {
         structure,
@@ -256,6 +261,17 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
         responses,
         layout,
     })
+}
+
+/// A `[[response]]` table with its force's `file`, if any, joined to the job's folder.
+fn with_absolute_force_file(table: &toml::Table, base: &Path) -> toml::Table {
+    let mut table = table.clone();
+    if let Some(toml::Value::Table(force)) = table.get_mut("force")
+        && let Some(toml::Value::String(file)) = force.get_mut("file")
+    {
+        *file = base.join(&*file).to_string_lossy().into_owned();
+    }
+    table
 }
 
 /// A branch's (or response's: `what`) name names its files (`NAME.csv`, `NAME.json`, ...):

@@ -69,6 +69,10 @@ pub struct ResponseJob {
     pub name: String,
     /// The body of the table.
     pub body: ResponseBody,
+    /// The table as written, without `name`, a force `file` made absolute (found from
+    /// anywhere): what the Python bindings hand to `nnm.frequency_response` to run the job's
+    /// response on a model of their own (a mistuned disk of a sweep).
+    pub table: toml::Table,
 }
 
 /// What a `[[response]]` table says besides its `name`.

@@ -42,7 +42,7 @@ from ._model import (
     von_karman_beam,
 )
 from ._nnm import RESPONSE_SETTINGS_KEYS, SETTINGS_KEYS, __version__
-from ._response import Force, Response, ResponseEvent, Responses, force_response, frequency_response
+from ._response import Force, Response, ResponseEvent, Responses, force_response, frequency_response, job_response
 from .sweeps import sweep
 
 __all__ = [
@@ -69,6 +69,7 @@ __all__ = [
     "duffing",
     "force_response",
     "frequency_response",
+    "job_response",
     "modes",
     "solid",
     "sweep",

@@ -45,11 +45,14 @@ examples:
   python -m nnm sweep examples/bladed-disk.toml --branch mode-1-14 --out sweep/ \\
       --samples 50 --mistuning 0.01,0.02,0.05 --seed 1
   python -m nnm sweep examples/bladed-disk.toml --out grid/ --grid model.cubic=0.05,0.1,0.2
+  python -m nnm sweep examples/forced-bladed-disk.toml --response eo5 --out forced/ \\
+      --samples 100 --mistuning 0.01,0.02,0.05   # amplification of the worst blade
   python -m nnm sweep job.toml --out sweep/ --samples 200 --mistuning 0.02 \\
       --scheduler tcp://scheduler:8786      # an existing Dask cluster (crates/nnm-py/README.md, "Sweeps on Dask")
 
 The job's branches give the modes and the energy range (their limits); every branch started
-from a mode is swept unless --branch names some. Rerunning into the same --out skips the
+from a mode is swept unless --branch names some (or --response names the job's forced
+responses to sweep instead). Rerunning into the same --out skips the
 samples already in DIR/sweep.csv.
 
 exit status:
@@ -101,6 +104,7 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("job", help="the job file (TOML), as for `nnm run`")
     s.add_argument("--out", required=True, metavar="DIR", help="output folder (a rerun into it resumes)")
     s.add_argument("--branch", action="append", metavar="NAME", help="a branch of the job to sweep (repeatable; default: all started from a mode)")
+    s.add_argument("--response", action="append", metavar="NAME", help="a [[response]] of the job to sweep instead of branches (one force level; repeatable): per sample its largest blade amplitude and the amplification against the tuned disk")
     s.add_argument("--samples", type=int, default=0, metavar="N", help="mistuned replicates per level")
     s.add_argument("--mistuning", type=_levels, default=[], metavar="SIGMA[,SIGMA...]", help="relative standard deviation(s) of the blade stiffnesses, k_i = k (1 + σ ξ_i)")
     s.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the mistuning draws (default 0)")
@@ -206,6 +210,7 @@ def _main(args: argparse.Namespace) -> int:
             args.job,
             args.out,
             branches=args.branch,
+            responses=args.response,
             samples=args.samples,
             mistuning=args.mistuning,
             seed=args.seed,
@@ -225,7 +230,7 @@ def _main(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"{result!r}\n  {result.out}/sweep.csv, statistics.csv, samples/{', figures' if not args.no_figures else ''}")
     if result.failed_rows:
-        named = _named([f"{r['index']} ({r['branch']}: {r['message'] or r['stop']})" for r in result.failed_rows])
+        named = _named([f"{r['index']} ({r.get('branch', r.get('response'))}: {r['message'] or r['stop']})" for r in result.failed_rows])
         print(f"nnm sweep: {result.failed} rows of {result.out}/sweep.csv failed, index {named}", file=sys.stderr)
     if result.missing:
         named = _named(result.missing)

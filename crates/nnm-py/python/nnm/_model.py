@@ -164,6 +164,11 @@ class Model:
         """Names of the ``[[branch]]`` entries of the job file the model came from."""
         return self._native.branch_names
 
+    @property
+    def responses(self) -> list[str]:
+        """Names of the ``[[response]]`` entries of the job file the model came from."""
+        return self._native.response_names
+
     def _matrix(self, name: str) -> Any:
         return _scipy_or_dense(self._native.matrix(name))
 

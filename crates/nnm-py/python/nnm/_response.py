@@ -463,3 +463,30 @@ def force_response(
     )
     curve.force = force
     return curve
+
+
+def job_response(model: "Model", name: str, **kwargs: Any) -> "Response | Responses":
+    """The ``[[response]]`` ``name`` of the job file ``model`` came from
+    (``Model.from_job``), computed on ``model`` with its damping — e.g. a mistuned variant of
+    the job's disk: :func:`frequency_response` (or :func:`force_response` for ``parameter =
+    "amplitude"``) with the table's force, range, levels, output dofs and settings; a
+    :class:`Response`, or :class:`Responses` when the table lists ``amplitudes``. ``kwargs``
+    are those functions' own (``progress``, ``callback``, ``raise_on_failure``) or settings
+    that replace the table's. A ``ValueError`` names the job's responses
+    (``model.responses``) when it has no ``name``."""
+    _check_model(model)
+    table = dict(model._native.job_response(name))
+    force = table.pop("force")
+    output_dofs = table.pop("output_dofs", None)
+    if table.pop("parameter", "frequency") == "amplitude":
+        frequency = table.pop("frequency")
+        top = table.pop("amplitude_max")
+        start = table.pop("amplitude_start", None)
+        if start is not None:
+            force = {**force, "amplitude": start}
+        elif "dofs" in force or "engine_order" in force:
+            force = {**force, "amplitude": 1e-3 * top}
+        return force_response(model, force, frequency, top, output_dofs=output_dofs, **{**table, **kwargs})
+    frequency = (table.pop("frequency_start"), table.pop("frequency_end"))
+    amplitudes = table.pop("amplitudes", None)
+    return frequency_response(model, force, frequency, amplitudes=amplitudes, output_dofs=output_dofs, **{**table, **kwargs})

@@ -38,6 +38,15 @@ mid-sample is replaced by Dask and its sample rerun elsewhere; samples whose bra
 numerically are kept as rows with ``status = "failed"`` and the reason; a sample that raises
 on its worker has no row (``SweepResult.missing``; a rerun computes it).
 
+A sweep of **forced responses** (``responses=[...]``, ``--response NAME``) runs a job's
+``[[response]]`` (one force level) on every mistuned disk and on the tuned one, and reports per
+sample the largest amplitude of its output dofs (every blade, for an engine-order force) over
+the curve, where (blade, frequency) it is reached, and the **amplification**: that peak over
+the tuned disk's at the same grid point — bounded by Whitehead's ``(1 + √N)/2`` for a linear
+disk (:func:`whitehead_bound`), unknown in general for a nonlinear one (docs/method.md §21).
+A mistuned row waits for its tuned sample when that one is still running; the tuned sample
+is part of the sweep (σ = 0), resumed and repeated like the others.
+
 Command line: ``python -m nnm sweep JOB.toml --out DIR ...`` (``python -m nnm sweep --help``).
 """
 
@@ -60,6 +69,7 @@ import numpy as np
 
 from . import _checks
 from ._model import Model, backbone, modes
+from ._response import job_response
 
 if TYPE_CHECKING:
     import distributed
@@ -354,7 +364,7 @@ _NUMBER_COLUMNS = ["mode", "mac", "linear_frequency", "points", "energy", "frequ
 def _check_row(row: dict[str, str]) -> None:
     if row["status"] not in ("ok", "failed"):
         raise ValueError(f"status `{row['status']}` is neither `ok` nor `failed`")
-    for column in _NUMBER_COLUMNS:
+    for column in _RESPONSE_NUMBER_COLUMNS if "response" in row else _NUMBER_COLUMNS:
         text = row[column]
         if text == "" and row["status"] == "failed":
             continue
@@ -387,9 +397,10 @@ def _row_key(row: dict[str, str], grid_keys: list[str]) -> tuple:
         except ValueError:
             raise ValueError(f"{column} `{text}` is not a number") from None
 
-    if not row["branch"]:
-        raise ValueError("the branch is empty")
-    return (row["branch"], tuple((k, grid_value(k)) for k in grid_keys), read("sigma", float), read("replicate", int))
+    name = row.get("branch", row.get("response", ""))
+    if not name:
+        raise ValueError("the branch is empty" if "branch" in row else "the response is empty")
+    return (name, tuple((k, grid_value(k)) for k in grid_keys), read("sigma", float), read("replicate", int))
 
 
 def _write_curve(path: Path, curve: dict[str, np.ndarray]) -> None:
@@ -434,6 +445,7 @@ def sweep(
     out: str | os.PathLike,
     *,
     branches: Sequence[str] | None = None,
+    responses: Sequence[str] | None = None,
     samples: int = 0,
     mistuning: Sequence[float] = (),
     seed: int = 0,
@@ -446,8 +458,9 @@ def sweep(
     progress: bool = True,
     figures: bool = True,
 ) -> SweepResult:
-    """Runs a sweep of ``job``'s branches (all of those started from a mode, or ``branches``)
-    over ``grid`` and ``mistuning`` (see the module's doc), writing into ``out`` as samples
+    """Runs a sweep of ``job``'s branches (all of those started from a mode, or ``branches``) —
+    or of its forced responses ``responses`` (the ``[[response]]`` names, one force level
+    each) — over ``grid`` and ``mistuning`` (see the module's doc), writing into ``out`` as samples
     complete, on Dask: a ``client`` given, a scheduler at ``scheduler`` (``"tcp://host:8786"``),
     or a ``LocalCluster`` of ``workers`` processes (default, ``None``: one per core of this
     machine; at least 1), one thread each; at most one of the three. ``on_row(row)`` is called
@@ -476,6 +489,16 @@ def sweep(
                 f"workers must be at most {most} ({WORKERS_PER_CORE} per core of this machine; each computes on one core), "
                 f"got {_checks.number(workers)}"
             )
+    if branches and responses is not None:
+        raise ValueError("a sweep follows either branches or responses, not both")
+    if responses is not None:
+        if isinstance(responses, (str, bytes)):
+            raise TypeError(f"responses takes a list of the job's [[response]] names, got {responses!r}")
+        responses = list(responses)
+        if not responses:
+            raise ValueError("responses is empty: name at least one of the job's [[response]]")
+        if localization_sectors is not None:
+            raise ValueError("localization_sectors applies to a sweep of branches, not of responses")
     if sum(x is not None for x in (workers, scheduler, client)) > 1:
         raise ValueError("give at most one of `workers`, `scheduler` and `client`")
     if scheduler is not None:
@@ -487,14 +510,24 @@ def sweep(
     plan([], samples=samples, mistuning=mistuning, grid=grid)  # the levels and samples
     points = [dict(p) for p in itertools.product(*([(k, v) for v in vs] for k, vs in grid.items()))]
     tuned = _model_at(job_path, points[0], grid)
-    names = list(branches) if branches else [b for b in tuned.branches if tuned._native.branch_mode(b)]
-    if not names:
-        raise ValueError(f"{job_path}: the job has no branch started from a mode to sweep")
     for key in grid:
         if key.startswith("model.") and key.split(".", 1)[1] == "blade_stiffness_mistuning":
             raise ValueError("vary the mistuning with `mistuning` (levels) and `samples`, not as a grid key")
-    _check_points(job_path, points, grid, names, mistuning, samples, seed, localization_sectors)
-    todo = plan(names, samples=samples, mistuning=mistuning, grid=grid)
+    if responses is not None:
+        names = responses
+        for point in points:
+            model = _model_at(job_path, point, grid) if point is not points[0] else tuned
+            for name in names:
+                _check_response(model, name)
+        _check_points(job_path, points, grid, [], mistuning, samples, seed, None)
+        # The tuned disk is every level's reference: its sample runs beside the mistuned ones.
+        todo = plan(names, samples=samples, mistuning=[0.0, *mistuning], grid=grid)
+    else:
+        names = list(branches) if branches else [b for b in tuned.branches if tuned._native.branch_mode(b)]
+        if not names:
+            raise ValueError(f"{job_path}: the job has no branch started from a mode to sweep")
+        _check_points(job_path, points, grid, names, mistuning, samples, seed, localization_sectors)
+        todo = plan(names, samples=samples, mistuning=mistuning, grid=grid)
 
     # What `out` holds, read and checked before anything is written.
     identity = {
@@ -505,7 +538,9 @@ def sweep(
         "localization_sectors": localization_sectors,
         "motion_samples": MOTION_SAMPLES,
     }
-    columns = _columns(grid)
+    if responses is not None:
+        identity["responses"] = names
+    columns = _response_columns(grid) if responses is not None else _columns(grid)
     csv_path = out / SWEEP_CSV
     config_path = out / SWEEP_JSON
     rows = _read_rows(csv_path, columns, list(grid))
@@ -530,7 +565,8 @@ def sweep(
     try:
         out.mkdir(parents=True, exist_ok=True)
         (out / SAMPLES_DIR).mkdir(exist_ok=True)
-        record = {**identity, "nnm": _version(), "branches": names, "samples": samples, "mistuning": mistuning, "grid": grid}
+        record = {**identity, "nnm": _version(), "samples": samples, "mistuning": mistuning, "grid": grid}
+        record["responses" if responses is not None else "branches"] = names
         config_path.write_text(json.dumps(record, indent=2) + "\n")
         # Rewrite without any row cut short, then append as samples complete.
         tmp = csv_path.with_suffix(".tmp")
@@ -549,8 +585,12 @@ def sweep(
             # that quits at once, between rows, loses none).
             with csv_path.open("a", newline="", buffering=1) as f:
                 writer = csv.writer(f)
-                for result in _results(client, str(job_path), pending, seed, localization_sectors, say):
+
+                def emit(result: dict[str, Any]) -> None:
+                    nonlocal computed
                     row = result["row"]
+                    if responses is not None:
+                        _amplification(row, reference, list(grid))
                     _write_curve(out / SAMPLES_DIR / f"{todo[row['index']].name}.csv", result["curve"])
                     writer.writerow([_format(row.get(c, "")) for c in columns])
                     f.flush()
@@ -559,6 +599,37 @@ def sweep(
                     say(_progress_line(row, computed, len(pending)))
                     if on_row is not None:
                         on_row(row)
+
+                if responses is None:
+                    for result in _results(client, run_sample, (str(job_path), seed, localization_sectors), pending, say):
+                        emit(result)
+                else:
+                    # A mistuned row waits for its tuned disk's peak (its amplification's
+                    # reference) while that sample is still running.
+                    reference = {
+                        _reference_key(r, list(grid)): float(r["peak"])
+                        for r in rows
+                        if float(r["sigma"]) == 0 and r["status"] == "ok" and r["peak"]
+                    }
+                    running = {(s.branch, s.parameters) for s in pending if s.sigma == 0}
+                    waiting: list[dict[str, Any]] = []
+                    for result in _results(client, run_response_sample, (str(job_path), seed), pending, say):
+                        row = result["row"]
+                        key = _reference_key(row, list(grid))
+                        if float(row["sigma"]) == 0:
+                            if row["status"] == "ok" and math.isfinite(row["peak"]):
+                                reference[key] = row["peak"]
+                            running.discard(key)
+                            emit(result)
+                            for held in [w for w in waiting if _reference_key(w["row"], list(grid)) == key]:
+                                waiting.remove(held)
+                                emit(held)
+                        elif key in running:
+                            waiting.append(result)
+                        else:
+                            emit(result)
+                    for held in waiting:  # their tuned sample raised: no reference
+                        emit(held)
     finally:
         if own_client is not None:
             cluster = own_client.cluster
@@ -569,6 +640,11 @@ def sweep(
     have = {_row_key(r, list(grid)) for r in rows}
     missing = [s.name for s in todo if s.key not in have]
     result = SweepResult(out, rows, computed, len(todo) - len(pending), missing)
+    if responses is not None:
+        _write_response_statistics(out / STATISTICS_CSV, rows, list(grid))
+        if figures:
+            _write_amplification_figure(out, rows, tuned.cyclic[0] if tuned.cyclic else None)
+        return result
     _write_statistics(out / STATISTICS_CSV, rows, list(grid))
     if figures:
         _write_figures(out, rows, todo, list(grid))
@@ -819,7 +895,9 @@ def _describe(client: Any) -> str:
     return f"{len(info.get('workers', {}))} Dask workers at {info.get('address', '?')}"
 
 
-def _results(client: Any, job: str, pending: list[Sample], seed: int, top: int | None, say: Callable[[str], None]) -> Iterable[dict[str, Any]]:
+def _results(
+    client: Any, task: Callable[..., dict[str, Any]], args: tuple, pending: list[Sample], say: Callable[[str], None]
+) -> Iterable[dict[str, Any]]:
     """Submits the samples and yields their results as they complete. A sample whose worker
     was lost is rerun by Dask on another (up to the scheduler's allowed failures); one that
     still cannot finish, or raises, is reported and left out of ``sweep.csv``, so that a
@@ -827,7 +905,7 @@ def _results(client: Any, job: str, pending: list[Sample], seed: int, top: int |
     from dask.distributed import as_completed
 
     futures = [
-        client.submit(run_sample, job, s, seed, top, key=f"nnm-sample-{s.index}-{s.name}", pure=False)
+        client.submit(task, args[0], s, *args[1:], key=f"nnm-sample-{s.index}-{s.name}", pure=False)
         for s in pending
     ]
     try:
@@ -844,9 +922,19 @@ def _results(client: Any, job: str, pending: list[Sample], seed: int, top: int |
 
 
 def _progress_line(row: dict[str, Any], done: int, total: int) -> str:
-    what = row["branch"] + "".join(f" {k}={row[k]}" for k in row if k.startswith(("model.", "settings.", "branch.")))
+    name = row.get("branch", row.get("response", ""))
+    what = name + "".join(f" {k}={row[k]}" for k in row if k.startswith(("model.", "settings.", "branch.")))
     if row["sigma"]:
         what += f" σ={row['sigma']:g} r={row['replicate']}"
+    if "response" in row:
+        if row["status"] != "ok":
+            return f"nnm sweep: [{done}/{total}] {what}: failed after {row['points']} points: {row['message']}"
+        factor = row.get("amplification", "")
+        factor = f", amplification {float(factor):.4f}" if factor not in ("", None) else ""
+        return (
+            f"nnm sweep: [{done}/{total}] {what}: peak {row['peak']:.6g} at {row['peak_frequency']:.6g} rad/s "
+            f"(blade {row['peak_blade']}){factor} ({row['seconds']:.2f} s)"
+        )
     if row["status"] != "ok":
         return f"nnm sweep: [{done}/{total}] {what}: failed after {row['points']} points: {row['message']}"
     return (
@@ -859,11 +947,11 @@ def _progress_line(row: dict[str, Any], done: int, total: int) -> str:
 # Statistics and figures
 
 
-def _groups(rows: list[dict[str, str]], grid_keys: list[str]) -> dict[tuple, list[dict[str, str]]]:
-    """The rows by branch, grid point and ``σ``, failed ones included."""
+def _groups(rows: list[dict[str, str]], grid_keys: list[str], name: str = "branch") -> dict[tuple, list[dict[str, str]]]:
+    """The rows by branch (or response: ``name``), grid point and ``σ``, failed ones included."""
     groups: dict[tuple, list[dict[str, str]]] = {}
     for r in rows:
-        key = (r["branch"], *(float(r[k]) for k in grid_keys), float(r["sigma"]))
+        key = (r[name], *(float(r[k]) for k in grid_keys), float(r["sigma"]))
         groups.setdefault(key, []).append(r)
     return dict(sorted(groups.items()))
 
@@ -963,3 +1051,169 @@ def _write_figures(out: Path, rows: list[dict[str, str]], todo: list[Sample], gr
         fig.tight_layout()
         fig.savefig(out / filename, dpi=110)
         plt.close(fig)
+
+
+# ----------------------------------------------------------------------------------------
+# Forced responses of mistuned disks (docs/method.md §21)
+
+
+def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
+    """Computes one forced sample (on a Dask worker, or anywhere): the model of ``job`` with
+    the sample's grid values and mistuning, and the job's ``[[response]]`` ``sample.branch``
+    (one force level) on it. Returns ``{"row": ..., "curve": ...}``: the row's largest
+    amplitude of the output dofs (every blade for an engine-order force) over the curve, the
+    blade and frequency where it is reached, the folds; the amplification against the tuned
+    disk is the driver's (it needs the tuned sample). A curve that fails numerically gives a
+    row with ``status = "failed"`` and the points it reached; bad input raises."""
+    started = time.perf_counter()
+    overrides = dict(sample.parameters)
+    model = Model.from_job(job, overrides)
+    cyclic = model.cyclic
+    if sample.sigma > 0:
+        if model.family != "bladed-disk" or cyclic is None:
+            raise ValueError("mistuning applies to a bladed disk (`family = \"bladed-disk\"`); vary other models with a grid")
+        deviations = sample.sigma * mistuning_draw(seed, sample.replicate, cyclic[0])
+        model = Model.from_job(job, {**overrides, "model.blade_stiffness_mistuning": deviations.tolist()})
+    response = job_response(model, sample.branch, progress=False, raise_on_failure=False)
+    error = response.stop if response.stop_kind in ("failed", "first-point") else ""
+    peaks = np.asarray(response.peaks, dtype=float)
+    peaks = peaks.reshape(len(response), -1) if len(response) else np.zeros((0, 1))
+    row: dict[str, Any] = {
+        "index": sample.index,
+        "response": sample.branch,
+        **{key: value for key, value in sample.parameters},
+        "sigma": sample.sigma,
+        "replicate": sample.replicate,
+        "seed": seed if sample.sigma > 0 else "",
+        "force_amplitude": float(response.force_amplitude[0]) if len(response) else math.nan,
+        "points": len(response),
+        "peak": math.nan,
+        "peak_blade": "",
+        "peak_frequency": math.nan,
+        "folds": len(response.folds),
+        "stop": response.stop_kind,
+        "status": "failed" if error else "ok",
+        "message": error,
+    }
+    if peaks.size:
+        point, column = np.unravel_index(int(np.nanargmax(peaks)), peaks.shape)
+        dof = response.output_dofs[column]
+        row["peak"] = float(peaks[point, column])
+        row["peak_blade"] = dof // cyclic[1] if cyclic else dof
+        row["peak_frequency"] = float(response.frequency[point])
+    row["seconds"] = round(time.perf_counter() - started, 3)
+    curve = {
+        "frequency_rad_s": response.frequency,
+        "stable": response.stable,
+        "peak": peaks.max(axis=1) if peaks.size else np.zeros(0),
+    }
+    return {"row": row, "curve": curve}
+
+
+def _response_columns(grid_keys: Iterable[str]) -> list[str]:
+    return [
+        "index", "response", *grid_keys, "sigma", "replicate", "seed", "force_amplitude", "points",
+        "peak", "peak_blade", "peak_frequency", "tuned_peak", "amplification", "folds", "stop", "status",
+        "message", "seconds",
+    ]  # fmt: skip
+
+
+#: Columns of a response sweep's ``sweep.csv`` that hold numbers (empty where a curve has none).
+_RESPONSE_NUMBER_COLUMNS = ["force_amplitude", "points", "peak", "peak_frequency", "tuned_peak", "amplification", "folds"]
+
+
+def whitehead_bound(sectors: int) -> float:
+    """Whitehead's bound on the forced amplification of a linear mistuned disk of ``sectors``
+    blades, ``(1 + √N)/2`` (the worst blade against the tuned disk's response)."""
+    return 0.5 * (1.0 + math.sqrt(sectors))
+
+
+#: The columns of a response sweep summarised in ``statistics.csv``.
+RESPONSE_STATISTICS = ["amplification", "peak", "peak_frequency"]
+
+
+def _write_response_statistics(path: Path, rows: list[dict[str, str]], grid_keys: list[str]) -> None:
+    """Per response, grid point and ``σ``: the count of samples (and of failed ones) and the
+    mean, 10/50/90/99% quantiles and maximum of each of :data:`RESPONSE_STATISTICS` over the
+    samples that succeeded."""
+    header = ["response", *grid_keys, "sigma", "samples", "failed"]
+    for q in RESPONSE_STATISTICS:
+        header += [f"{q}_{s}" for s in ("mean", "q10", "q50", "q90", "q99", "max")]
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        for key, group in _groups(rows, grid_keys, "response").items():
+            ok = [r for r in group if r["status"] == "ok"]
+            line = [*map(_format, key), len(group), len(group) - len(ok)]
+            for q in RESPONSE_STATISTICS:
+                x = np.array([float(r[q]) if r[q] else math.nan for r in ok])
+                x = x[np.isfinite(x)]
+                if len(x):
+                    line += [_format(v) for v in (x.mean(), *np.quantile(x, [0.1, 0.5, 0.9, 0.99]), x.max())]
+                else:
+                    line += [""] * 6
+            w.writerow(line)
+
+
+def _write_amplification_figure(out: Path, rows: list[dict[str, str]], sectors: int | None) -> None:
+    """``amplification.png``: each sample's amplification factor against ``σ``, the mean and
+    the largest per level, and Whitehead's bound for the disk's blades. Skipped without
+    matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    ok = [r for r in rows if r["status"] == "ok" and r["amplification"] and float(r["sigma"]) > 0]
+    if not ok:
+        return
+    names = sorted({r["response"] for r in ok})
+    fig, axes = plt.subplots(1, len(names), figsize=(5.2 * len(names), 3.9), squeeze=False)
+    for ax, name in zip(axes[0], names):
+        mine = [r for r in ok if r["response"] == name]
+        x = np.array([float(r["sigma"]) for r in mine])
+        y = np.array([float(r["amplification"]) for r in mine])
+        ax.plot(x, y, ".", color="0.6", ms=3, label="samples")
+        levels = sorted(set(x))
+        ax.plot(levels, [y[x == s].mean() for s in levels], "o-", color="C0", label="mean")
+        ax.plot(levels, [y[x == s].max() for s in levels], "s--", color="C3", label="largest")
+        if sectors:
+            ax.axhline(whitehead_bound(sectors), color="k", lw=1, ls=":", label=f"Whitehead (1 + √{sectors})/2")
+        ax.axhline(1.0, color="0.3", lw=0.8)
+        if len(levels) > 1 and min(levels) > 0 and max(levels) / min(levels) > 20:
+            ax.set_xscale("log")
+        ax.set_xlabel("mistuning σ")
+        ax.set_ylabel("amplification (largest blade / tuned)")
+        ax.set_title(f"{name}", fontsize="medium")
+        ax.legend(loc="best", fontsize="small")
+    fig.tight_layout()
+    fig.savefig(out / "amplification.png", dpi=110)
+    plt.close(fig)
+
+
+def _check_response(model: Model, name: str) -> None:
+    """That the job has the ``[[response]]`` ``name`` (a ``ValueError`` listing its responses)
+    with one force level: a sample's row is one curve."""
+    table = model._native.job_response(name)
+    levels = table.get("amplitudes")
+    if levels is not None and len(levels) != 1:
+        raise ValueError(
+            f"response `{name}` has {len(levels)} force levels (`amplitudes`): a sweep takes one level per response "
+            "(a [[response]] per level)"
+        )
+
+
+def _reference_key(row: dict[str, Any], grid_keys: list[str]) -> tuple:
+    """The tuned sample a response row is amplified against: its response and grid point."""
+    return (row["response"], tuple((k, float(row[k])) for k in grid_keys))
+
+
+def _amplification(row: dict[str, Any], reference: dict[tuple, float], grid_keys: list[str]) -> None:
+    """Sets ``tuned_peak`` and ``amplification`` (the row's peak over its tuned disk's) of a
+    response row, empty without a reference."""
+    tuned = reference.get(_reference_key(row, grid_keys))
+    peak = row["peak"]
+    row["tuned_peak"] = tuned if tuned else ""
+    row["amplification"] = peak / tuned if tuned and math.isfinite(peak) else ""

@@ -100,7 +100,7 @@ impl Force {
                 sector_dof,
             } => {
                 finite("amplitude", *amplitude)?;
-                let Some(cyclic) = system.cyclic_symmetry() else {
+                let Some(cyclic) = system.sector_layout() else {
                     return Err(ForceError(
                         "engine-order excitation needs a cyclic model (a bladed disk)".into(),
                     ));

@@ -212,13 +212,15 @@ impl BladedDisk {
             SparseMatrix::from_triplets(n, t).map_err(ModelError::InvalidParameter)
         };
         let structure = Structure::new(sparse(&mass)?, sparse(&stiffness)?, elements)?;
-        if mistuning.iter().any(|&d| d != 0.0) {
-            return Ok(structure);
-        }
-        structure.with_cyclic_symmetry(CyclicSymmetry {
+        let sectors = CyclicSymmetry {
             sectors: n_s,
             dofs_per_sector: 2,
-        })
+        };
+        if mistuning.iter().any(|&d| d != 0.0) {
+            // Its sectors still are, an engine order drives them; the symmetry is gone.
+            return structure.with_sector_layout(sectors);
+        }
+        structure.with_cyclic_symmetry(sectors)
     }
 }
 

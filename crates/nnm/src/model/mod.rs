@@ -104,6 +104,13 @@ pub trait MechanicalSystem: Sync {
         None
     }
 
+    /// The sectors of a structure made of equal-sized sectors in sector-major numbering, with
+    /// or without the symmetry: a mistuned disk keeps its sectors (an engine order drives
+    /// them, [`crate::forced::Force`]) though its blades differ. The symmetry's, by default.
+    fn sector_layout(&self) -> Option<CyclicSymmetry> {
+        self.cyclic_symmetry()
+    }
+
     /// Total energy `E = ½ vᵀ M v + V(x)` (eq. (2)).
     fn energy(&self, x: &[f64], v: &[f64]) -> f64 {
         let mut mv = vec![0.0; v.len()];

@@ -117,6 +117,8 @@ pub struct Structure {
     stiffness_operator: Matrix,
     elements: Vec<Box<dyn NonlinearElement>>,
     cyclic: Option<CyclicSymmetry>,
+    /// Sectors without the symmetry (a mistuned disk's), [`MechanicalSystem::sector_layout`].
+    sectors: Option<CyclicSymmetry>,
     tangent: Option<TangentAssembly>,
     /// Every dof some element touches, ascending ([`MechanicalSystem::nonlinear_dofs`]).
     nonlinear_dofs: Vec<usize>,
@@ -323,25 +325,39 @@ impl Structure {
             nonlinear_dofs,
             elements,
             cyclic: None,
+            sectors: None,
             tangent,
         })
     }
 
     /// Declares the cyclic symmetry (sector-major dof numbering).
     pub fn with_cyclic_symmetry(mut self, cyclic: CyclicSymmetry) -> Result<Self, ModelError> {
+        self.check_sectors("cyclic symmetry", cyclic)?;
+        self.cyclic = Some(cyclic);
+        Ok(self)
+    }
+
+    /// Declares sectors without the symmetry (sector-major numbering, sectors that differ: a
+    /// mistuned disk), for what is laid out by sector ([`MechanicalSystem::sector_layout`]).
+    pub fn with_sector_layout(mut self, sectors: CyclicSymmetry) -> Result<Self, ModelError> {
+        self.check_sectors("sector layout", sectors)?;
+        self.sectors = Some(sectors);
+        Ok(self)
+    }
+
+    fn check_sectors(&self, what: &str, cyclic: CyclicSymmetry) -> Result<(), ModelError> {
         if cyclic.sectors == 0
             || cyclic.dofs_per_sector == 0
             || cyclic.sectors * cyclic.dofs_per_sector != self.dofs()
         {
             return Err(ModelError::InvalidParameter(format!(
-                "cyclic symmetry of {} sectors x {} dofs does not match the {} dofs of the model",
+                "{what} of {} sectors x {} dofs does not match the {} dofs of the model",
                 cyclic.sectors,
                 cyclic.dofs_per_sector,
                 self.dofs()
             )));
         }
-        self.cyclic = Some(cyclic);
-        Ok(self)
+        Ok(())
     }
 
     /// The mass matrix as given.
@@ -473,6 +489,10 @@ impl MechanicalSystem for Structure {
 
     fn cyclic_symmetry(&self) -> Option<CyclicSymmetry> {
         self.cyclic
+    }
+
+    fn sector_layout(&self) -> Option<CyclicSymmetry> {
+        self.cyclic.or(self.sectors)
     }
 }
 
