@@ -256,21 +256,7 @@ impl NativeModel {
             .responses
             .iter()
             .find(|(n, _)| n == name)
-            .ok_or_else(|| {
-                let names: Vec<String> = self
-                    .responses
-                    .iter()
-                    .map(|(n, _)| format!("`{n}`"))
-                    .collect();
-                PyValueError::new_err(format!(
-                    "the job has no response `{name}` (its responses: {})",
-                    if names.is_empty() {
-                        "none".into()
-                    } else {
-                        names.join(", ")
-                    }
-                ))
-            })?;
+            .ok_or_else(|| no_such("response", name, self.responses.iter().map(|(n, _)| n)))?;
         convert::from_toml(py, &toml::Value::Table(table.clone()))
     }
 
@@ -644,21 +630,7 @@ impl NativeModel {
             .branches
             .iter()
             .find(|b| b.name == name)
-            .ok_or_else(|| {
-                let names: Vec<String> = self
-                    .branches
-                    .iter()
-                    .map(|b| format!("`{}`", b.name))
-                    .collect();
-                PyValueError::new_err(format!(
-                    "the job has no branch `{name}` (its branches: {})",
-                    if names.is_empty() {
-                        "none".into()
-                    } else {
-                        names.join(", ")
-                    }
-                ))
-            })?;
+            .ok_or_else(|| no_such("branch", name, self.branches.iter().map(|b| &b.name)))?;
         if let Some(from) = &job.from_event {
             return Err(PyValueError::new_err(format!(
                 "branch `{name}` starts from event {} of branch `{}`: branch switching is not available from Python yet (run the job with `nnm run`)",
@@ -674,6 +646,20 @@ impl NativeModel {
             resonance_force: None,
         })
     }
+}
+
+/// `ValueError`: the job has no `what` (`branch`, `response`) `name`, naming those it has.
+fn no_such<'a>(what: &str, name: &str, names: impl Iterator<Item = &'a String>) -> PyErr {
+    let names: Vec<String> = names.map(|n| format!("`{n}`")).collect();
+    let plural = if what.ends_with('h') { "es" } else { "s" };
+    PyValueError::new_err(format!(
+        "the job has no {what} `{name}` (its {what}{plural}: {})",
+        if names.is_empty() {
+            "none".into()
+        } else {
+            names.join(", ")
+        }
+    ))
 }
 
 /// The default parameters of a built-in family (`"bladed-disk"`, ...) as the library declares

@@ -1,5 +1,5 @@
-"""Shared fixtures: the `nnm` command-line tool (to compare the bindings with it) and job
-files written into a temporary folder."""
+"""Shared fixtures: the `nnm` command-line tool (to compare the bindings with it), job
+files written into a temporary folder, and a two-process Dask cluster for the sweeps."""
 
 from __future__ import annotations
 
@@ -85,3 +85,13 @@ def check_declared_columns(points, declared, columns, module) -> list:
         [c.name.replace("<d>", str(d)) for d in points.output_dofs] if c.per_output_dof else [c.name])]
     assert list(points.to_pandas().columns) == header
     return csv
+
+
+@pytest.fixture(scope="module")
+def client():
+    """Two worker processes, one thread each: what `--workers 2` starts (one cluster per test
+    module that sweeps)."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as c:
+            yield c

@@ -42,14 +42,6 @@ mode = "1,2"
 """
 
 
-@pytest.fixture(scope="module")
-def client():
-    """Two worker processes, one thread each: what `--workers 2` starts."""
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        with distributed.Client(cluster) as c:
-            yield c
-
-
 def rows(out: Path) -> list[dict[str, str]]:
     with (out / "sweep.csv").open(newline="") as f:
         return sorted(csv.DictReader(f), key=lambda r: int(r["index"]))

@@ -31,13 +31,18 @@ fn interpolable(s_points: &[f64], y_points: &[f64], i: usize) -> bool {
     s.iter().chain(y).all(|v| v.is_finite()) && (0..s.len()).all(|j| (0..j).all(|k| s[j] != s[k]))
 }
 
+/// The first `i` with `value` between `values[i]` and `values[i + 1]`.
+fn bracket(values: &[f64], count: usize, value: f64) -> Option<usize> {
+    (0..count.saturating_sub(1)).find(|&i| {
+        let (a, b) = (values[i], values[i + 1]);
+        a.min(b) <= value && value <= a.max(b)
+    })
+}
+
 /// `y(s)` between the points (`s` within their range, the first bracket that holds it).
 pub fn value_at(s_points: &[f64], y_points: &[f64], s: f64) -> Option<f64> {
     let count = s_points.len().min(y_points.len());
-    let i = (0..count.saturating_sub(1)).find(|&i| {
-        let (a, b) = (s_points[i], s_points[i + 1]);
-        a.min(b) <= s && s <= a.max(b)
-    })?;
+    let i = bracket(s_points, count, s)?;
     interpolable(s_points, y_points, i).then(|| cubic(s_points, y_points, i, s))
 }
 
@@ -45,10 +50,7 @@ pub fn value_at(s_points: &[f64], y_points: &[f64], s: f64) -> Option<f64> {
 /// `y_i`, `y_{i+1}` hold it, and there the root of the cubic `y(s) = target` by bisection.
 pub fn first_reached(s_points: &[f64], y_points: &[f64], target: f64) -> Option<f64> {
     let count = s_points.len().min(y_points.len());
-    let i = (0..count.saturating_sub(1)).find(|&i| {
-        let (a, b) = (y_points[i], y_points[i + 1]);
-        a.min(b) <= target && target <= a.max(b)
-    })?;
+    let i = bracket(y_points, count, target)?;
     if !interpolable(s_points, y_points, i) {
         return None;
     }
