@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use nnm::BranchPoint;
-use nnm::analysis::{EnergyBalance, first_reached, value_at};
+use nnm::analysis::{EnergyBalance, first_reached, value_in};
 use nnm::forced::Sweep;
 use nnm::model::HarmonicForce;
 use nnm_plot::{ResponsePlot, ResponseSeries};
@@ -43,7 +43,8 @@ const BACKBONE_COLOR: (u8, u8, u8) = (0, 0, 0);
 
 impl Backbone {
     /// The backbone of a frequency sweep over `[from, to]` whose figure shows `dof`, driven by
-    /// `force`: the first branch that records `dof` and has a point in the sweep's range.
+    /// `force`: among the branches that record `dof` and have a point in the sweep's range,
+    /// the first that balances this force (`resonance_force`), else the first.
     pub fn find(
         branches: &[ComputedBranch<'_>],
         sweep: &Sweep,
@@ -53,12 +54,18 @@ impl Backbone {
         let Sweep::Frequency { from, to, .. } = *sweep else {
             return None;
         };
-        branches.iter().find_map(|b| {
+        let beside = |b: &&ComputedBranch<'_>| {
+            b.output_dofs.contains(&dof)
+                && b.points.iter().any(|p| (from..=to).contains(&p.frequency))
+        };
+        let balances = |b: &&ComputedBranch<'_>| b.balance.is_some_and(|x| x.force() == force);
+        let chosen = branches
+            .iter()
+            .filter(beside)
+            .find(balances)
+            .or_else(|| branches.iter().find(beside));
+        chosen.and_then(|b| {
             let column = b.output_dofs.iter().position(|&d| d == dof)?;
-            let in_range = |p: &BranchPoint| (from..=to).contains(&p.frequency);
-            if !b.points.iter().any(in_range) {
-                return None;
-            }
             let peak = |p: &BranchPoint| p.peak_displacements.get(column).copied();
             let points: Vec<&BranchPoint> = b.points.iter().filter(|p| peak(p).is_some()).collect();
             let same_force = b.balance.is_some_and(|balance| balance.force() == force);
@@ -82,18 +89,18 @@ impl Backbone {
     /// The backbone's peak at `frequency`, between its points (eq. (113)'s comparison): the
     /// energy where the branch reaches that frequency, then the peak at that energy.
     pub fn peak_at(&self, frequency: f64) -> Option<f64> {
-        let s = first_reached(&self.log_energy, &self.frequencies, frequency)?;
-        value_at(&self.log_energy, &self.log_peaks, s).map(f64::exp)
+        let at = first_reached(&self.log_energy, &self.frequencies, frequency)?;
+        value_in(&self.log_energy, &self.log_peaks, at).map(f64::exp)
     }
 
     /// `(frequency, peak)` of the resonance peak energy balance predicts for force amplitude
     /// `level` (eq. (111c)): at the energy where the points' resonance force first reaches it.
     pub fn predicted_peak(&self, level: f64) -> Option<(f64, f64)> {
         let log_force = self.log_force.as_ref()?;
-        let s = first_reached(&self.log_energy, log_force, level.ln())?;
+        let at = first_reached(&self.log_energy, log_force, level.ln())?;
         Some((
-            value_at(&self.log_energy, &self.frequencies, s)?,
-            value_at(&self.log_energy, &self.log_peaks, s)?.exp(),
+            value_in(&self.log_energy, &self.frequencies, at)?,
+            value_in(&self.log_energy, &self.log_peaks, at)?.exp(),
         ))
     }
 

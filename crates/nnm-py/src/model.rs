@@ -248,8 +248,8 @@ impl NativeModel {
             .collect()
     }
 
-    /// The job file's `[[response]]` `name` as written (without `name`; a force `file` made
-    /// absolute), for `Model.response` to run through `nnm.frequency_response`; a
+    /// The job file's `[[response]]` `name` as written (without `name`; a force `file` read
+    /// into its `vector`), for `Model.response` to run through `nnm.frequency_response`; a
     /// `ValueError` naming the job's responses when it has no such one.
     fn job_response<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
         let (_, table) = self
@@ -428,6 +428,11 @@ impl NativeModel {
         let table = table_from_dict(settings)?;
         let body =
             nnm_io::job::branch_body(table, &toml::Table::new(), true).map_err(input_error)?;
+        if body.resonance_force.is_some() {
+            return Err(PyValueError::new_err(
+                "resonance_force on a switched branch runs with `nnm run` (a job's `start = { branch, event }`); from Python, give it to nnm.backbone",
+            ));
+        }
         let count = parent.events.len();
         let located = parent.events.get(event).ok_or_else(|| {
             // The Python layer checks first (Python-style, `-1` the last event): as it words it.

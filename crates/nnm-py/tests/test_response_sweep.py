@@ -141,3 +141,24 @@ def test_command_line_response_sweep(write_job, tmp_path: Path) -> None:
         "error: the job has no response `nope` (its responses: `eo2`)"
     ], bad.stderr
     assert not (tmp_path / "bad").exists()
+
+
+def test_a_row_without_its_tuned_peak_is_read_back_and_filled_when_the_peak_comes() -> None:
+    """A mistuned row written before its tuned sample had a peak (it failed, raised or the
+    sweep stopped) has empty `tuned_peak` and `amplification`: a rerun reads it, and fills
+    both once the tuned row is there."""
+    def row(sigma: str, replicate: str, peak: str) -> dict[str, str]:
+        values = {c: "1" for c in sweeps._RESPONSE_NUMBER_COLUMNS}
+        return {**values, "response": "eo2", "sigma": sigma, "replicate": replicate, "peak": peak,
+                "tuned_peak": "", "amplification": "", "status": "ok"}  # fmt: skip
+
+    mistuned = row("0.02", "0", "0.75")
+    sweeps._check_row(mistuned)
+    assert sweeps._row_key(mistuned, []) == ("eo2", (), 0.02, 0)
+    assert not sweeps._fill_references([mistuned], [])
+    rows = [mistuned, row("0.0", "0", "0.5")]
+    assert sweeps._fill_references(rows, [])
+    assert (float(mistuned["tuned_peak"]), float(mistuned["amplification"])) == (0.5, 1.5)
+    # A tuned row whose peak is not a number is no reference.
+    other = row("0.02", "1", "0.75")
+    assert not sweeps._fill_references([other, row("0.0", "0", "nan")], [])

@@ -10,7 +10,7 @@ mod peak;
 mod regime;
 
 pub use energy_balance::{EnergyBalance, ResonanceForce};
-pub use interpolate::{first_reached, value_at};
+pub use interpolate::{Reached, first_reached, value_at, value_in};
 pub use peak::{local_peak, peak_candidates};
 pub use regime::{
     HOME_SHARE, Home, ModalComponent, NEAR_DEGENERATE, REPORTED_SHARE, RESONANCE_WINDOW, Regime,

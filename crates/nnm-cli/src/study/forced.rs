@@ -8,7 +8,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
-use nnm::analysis::{EnergyBalance, first_reached, value_at};
+use nnm::analysis::{EnergyBalance, first_reached, value_in};
 use nnm::forced::damping::Damping;
 use nnm::forced::{
     Force, ResponseCurve, ResponseEventKind, ResponseSettings, Sweep, forced_response,
@@ -124,10 +124,10 @@ pub(super) fn compute(
         let target = linear_frequency * (1.0 + shift);
         let s = first_reached(&log_energy, &frequencies, target)
             .with_context(|| format!("the (1,5) backbone does not reach +{shift}"))?;
-        let force_level = value_at(&log_energy, &log_force, s)
+        let force_level = value_in(&log_energy, &log_force, s)
             .context("no resonance force there")?
             .exp();
-        let peak = value_at(&log_energy, &log_peak, s)
+        let peak = value_in(&log_energy, &log_peak, s)
             .context("no peak there")?
             .exp();
         let sweep = Sweep::Frequency {

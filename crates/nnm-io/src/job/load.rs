@@ -241,7 +241,7 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
         if let Some(m) = file_collision(("response", &name), &earlier) {
             return Err(invalid(m));
         }
-        let written = with_absolute_force_file(&table, base);
+        let written = with_force_vector(&table, base);
         let body = response_body(table, &structure, damping.as_ref(), fixed.as_ref(), base)
             .map_err(|m| invalid(format!("response `{name}`: {m}")))?;
         responses.push(ResponseJob {
@@ -263,13 +263,20 @@ fn job_from_file(file: JobFile, family: Option<Family>, path: &Path) -> Result<J
     })
 }
 
-/// A `[[response]]` table with its force's `file`, if any, joined to the job's folder.
-fn with_absolute_force_file(table: &toml::Table, base: &Path) -> toml::Table {
+/// A `[[response]]` table with its force's `file`, if any, read into the `vector` it holds
+/// (what the Python bindings' `Force` takes); left as written when it cannot be read, for
+/// [`response_body`] to refuse.
+fn with_force_vector(table: &toml::Table, base: &Path) -> toml::Table {
     let mut table = table.clone();
     if let Some(toml::Value::Table(force)) = table.get_mut("force")
-        && let Some(toml::Value::String(file)) = force.get_mut("file")
+        && let Some(toml::Value::String(file)) = force.get("file")
+        && let Ok(vector) = super::response::read_vector(&base.join(file))
     {
-        *file = base.join(&*file).to_string_lossy().into_owned();
+        force.remove("file");
+        force.insert(
+            "vector".into(),
+            toml::Value::Array(vector.into_iter().map(toml::Value::Float).collect()),
+        );
     }
     table
 }

@@ -69,9 +69,9 @@ pub struct ResponseJob {
     pub name: String,
     /// The body of the table.
     pub body: ResponseBody,
-    /// The table as written, without `name`, a force `file` made absolute (found from
-    /// anywhere): what the Python bindings hand to `nnm.frequency_response` to run the job's
-    /// response on a model of their own (a mistuned disk of a sweep).
+    /// The table as written, without `name`, a force `file` read into its `vector`: what the
+    /// Python bindings hand to `nnm.frequency_response` to run the job's response on a model
+    /// of their own (a mistuned disk of a sweep).
     pub table: toml::Table,
 }
 
@@ -509,7 +509,7 @@ pub fn force_shape(
 
 /// A force vector from a Matrix Market file: `n × 1`, array or coordinate (entries listed
 /// more than once are summed, as in an assembly).
-fn read_vector(file: &Path) -> Result<Vec<f64>, String> {
+pub(super) fn read_vector(file: &Path) -> Result<Vec<f64>, String> {
     let m = read_matrix_market(file).map_err(|e| e.to_string())?;
     if m.cols() != 1 {
         return Err(format!(

@@ -479,13 +479,18 @@ def job_response(model: "Model", name: str, **kwargs: Any) -> "Response | Respon
     force = table.pop("force")
     output_dofs = table.pop("output_dofs", None)
     if table.pop("parameter", "frequency") == "amplitude":
+        if "vector" in force:
+            raise ValueError(
+                f"response `{name}`: an amplitude sweep of a vector force runs with `nnm run`; from Python call "
+                "nnm.force_response with the vector scaled to the start"
+            )
         frequency = table.pop("frequency")
         top = table.pop("amplitude_max")
         start = table.pop("amplitude_start", None)
         if start is not None:
             force = {**force, "amplitude": start}
-        elif "dofs" in force or "engine_order" in force:
-            force = {**force, "amplitude": 1e-3 * top}
+        else:
+            force = {**force, "amplitude": 1e-3 * top}  # the job file's AMPLITUDE_START_RATIO
         return force_response(model, force, frequency, top, output_dofs=output_dofs, **{**table, **kwargs})
     frequency = (table.pop("frequency_start"), table.pop("frequency_end"))
     amplitudes = table.pop("amplitudes", None)

@@ -366,7 +366,9 @@ def _check_row(row: dict[str, str]) -> None:
         raise ValueError(f"status `{row['status']}` is neither `ok` nor `failed`")
     for column in _RESPONSE_NUMBER_COLUMNS if "response" in row else _NUMBER_COLUMNS:
         text = row[column]
-        if text == "" and row["status"] == "failed":
+        # A failed row has no numbers; a response row none of its tuned disk's when that
+        # sample failed or is still to compute (filled in when it is).
+        if text == "" and (row["status"] == "failed" or column in _REFERENCE_COLUMNS):
             continue
         try:
             float(text)
@@ -474,6 +476,8 @@ def sweep(
     nothing written. The result's ``failed`` and ``missing`` say which samples have no
     usable row."""
     job_path = Path(job).resolve()
+    if not str(os.fspath(out)).strip():
+        raise ValueError("out is empty: give the sweep's output folder")
     out = Path(out)
     grid = _checked_grid(grid)
     mistuning = [_real("a mistuning level", s) for s in mistuning]
@@ -606,30 +610,30 @@ def sweep(
                 else:
                     # A mistuned row waits for its tuned disk's peak (its amplification's
                     # reference) while that sample is still running.
-                    reference = {
-                        _reference_key(r, list(grid)): float(r["peak"])
-                        for r in rows
-                        if float(r["sigma"]) == 0 and r["status"] == "ok" and r["peak"]
-                    }
+                    reference = _references(rows, list(grid))
                     running = {(s.branch, s.parameters) for s in pending if s.sigma == 0}
                     waiting: list[dict[str, Any]] = []
-                    for result in _results(client, run_response_sample, (str(job_path), seed), pending, say):
-                        row = result["row"]
-                        key = _reference_key(row, list(grid))
-                        if float(row["sigma"]) == 0:
-                            if row["status"] == "ok" and math.isfinite(row["peak"]):
-                                reference[key] = row["peak"]
-                            running.discard(key)
-                            emit(result)
-                            for held in [w for w in waiting if _reference_key(w["row"], list(grid)) == key]:
-                                waiting.remove(held)
-                                emit(held)
-                        elif key in running:
-                            waiting.append(result)
-                        else:
-                            emit(result)
-                    for held in waiting:  # their tuned sample raised: no reference
-                        emit(held)
+                    try:
+                        for result in _results(client, run_response_sample, (str(job_path), seed), pending, say):
+                            row = result["row"]
+                            key = _reference_key(row, list(grid))
+                            if float(row["sigma"]) == 0:
+                                if row["status"] == "ok" and math.isfinite(row["peak"]):
+                                    reference[key] = row["peak"]
+                                running.discard(key)
+                                emit(result)
+                                for held in [w for w in waiting if _reference_key(w["row"], list(grid)) == key]:
+                                    waiting.remove(held)
+                                    emit(held)
+                            elif key in running:
+                                waiting.append(result)
+                            else:
+                                emit(result)
+                    finally:
+                        # Their tuned sample raised, or the sweep is stopping: written without
+                        # the reference, which a rerun fills in.
+                        for held in waiting:
+                            emit(held)
     finally:
         if own_client is not None:
             cluster = own_client.cluster
@@ -639,6 +643,14 @@ def sweep(
     rows.sort(key=lambda r: int(r["index"]))
     have = {_row_key(r, list(grid)) for r in rows}
     missing = [s.name for s in todo if s.key not in have]
+    if responses is not None and _fill_references(rows, list(grid)):
+        tmp = csv_path.with_suffix(".tmp")
+        with tmp.open("w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(columns)
+            for r in rows:
+                w.writerow([r[c] for c in columns])
+        tmp.replace(csv_path)
     result = SweepResult(out, rows, computed, len(todo) - len(pending), missing)
     if responses is not None:
         _write_response_statistics(out / STATISTICS_CSV, rows, list(grid))
@@ -1075,6 +1087,8 @@ def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
         deviations = sample.sigma * mistuning_draw(seed, sample.replicate, cyclic[0])
         model = Model.from_job(job, {**overrides, "model.blade_stiffness_mistuning": deviations.tolist()})
     response = job_response(model, sample.branch, progress=False, raise_on_failure=False)
+    if isinstance(response, list):  # `amplitudes = [a]`: its one level
+        response = response[0]
     error = response.stop if response.stop_kind in ("failed", "first-point") else ""
     peaks = np.asarray(response.peaks, dtype=float)
     peaks = peaks.reshape(len(response), -1) if len(response) else np.zeros((0, 1))
@@ -1120,6 +1134,8 @@ def _response_columns(grid_keys: Iterable[str]) -> list[str]:
 
 #: Columns of a response sweep's ``sweep.csv`` that hold numbers (empty where a curve has none).
 _RESPONSE_NUMBER_COLUMNS = ["force_amplitude", "points", "peak", "peak_frequency", "tuned_peak", "amplification", "folds"]
+#: The columns that come from the tuned sample, empty while it has no peak.
+_REFERENCE_COLUMNS = ("tuned_peak", "amplification")
 
 
 def whitehead_bound(sectors: int) -> float:
@@ -1203,6 +1219,30 @@ def _check_response(model: Model, name: str) -> None:
             f"response `{name}` has {len(levels)} force levels (`amplitudes`): a sweep takes one level per response "
             "(a [[response]] per level)"
         )
+
+
+def _references(rows: list[dict[str, str]], grid_keys: list[str]) -> dict[tuple, float]:
+    """The tuned samples' peaks among written rows, by response and grid point."""
+    out = {}
+    for r in rows:
+        if float(r["sigma"]) == 0 and r["status"] == "ok" and r["peak"] and math.isfinite(float(r["peak"])):
+            out[_reference_key(r, grid_keys)] = float(r["peak"])
+    return out
+
+
+def _fill_references(rows: list[dict[str, str]], grid_keys: list[str]) -> bool:
+    """Fills the empty ``tuned_peak`` and ``amplification`` of written rows whose tuned sample
+    has a peak now (it failed or raised in an earlier run, or the sweep stopped before it);
+    whether any changed."""
+    reference = _references(rows, grid_keys)
+    changed = False
+    for r in rows:
+        tuned = reference.get(_reference_key(r, grid_keys))
+        if r["tuned_peak"] == "" and tuned and r["peak"] and math.isfinite(float(r["peak"])):
+            r["tuned_peak"] = _format(tuned)
+            r["amplification"] = _format(float(r["peak"]) / tuned)
+            changed = True
+    return changed
 
 
 def _reference_key(row: dict[str, Any], grid_keys: list[str]) -> tuple:

@@ -101,9 +101,15 @@ impl EnergyBalance {
                 dissipated,
             };
         }
+        // `atan2` gives −π for a negative zero `Q`: the same phase as π, kept in (−π, π].
+        let phase = q.atan2(p);
         ResonanceForce {
             amplitude: dissipated / work,
-            phase: q.atan2(p),
+            phase: if phase <= -std::f64::consts::PI {
+                std::f64::consts::PI
+            } else {
+                phase
+            },
             dissipated,
         }
     }

@@ -43,14 +43,37 @@ fn bracket(values: &[f64], count: usize, value: f64) -> Option<usize> {
 pub fn value_at(s_points: &[f64], y_points: &[f64], s: f64) -> Option<f64> {
     let count = s_points.len().min(y_points.len());
     let i = bracket(s_points, count, s)?;
-    interpolable(s_points, y_points, i).then(|| cubic(s_points, y_points, i, s))
+    value_in(s_points, y_points, Reached { s, bracket: i })
 }
 
-/// The `s` where `y` first reaches `target`: the first bracket `[s_i, s_{i+1}]` whose ends
-/// `y_i`, `y_{i+1}` hold it, and there the root of the cubic `y(s) = target` by bisection.
-pub fn first_reached(s_points: &[f64], y_points: &[f64], target: f64) -> Option<f64> {
+/// Where a level is reached along the points: `s`, in bracket `[s_i, s_{i+1}]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reached {
+    /// The parameter `s` there.
+    pub s: f64,
+    /// `i` of the bracket `[s_i, s_{i+1}]` it is in.
+    pub bracket: usize,
+}
+
+/// `y` at a [`Reached`] place, by the cubic of its own bracket — not the first bracket that
+/// holds its `s`, which on a branch whose energy turns back (a tongue) is another stretch.
+pub fn value_in(s_points: &[f64], y_points: &[f64], at: Reached) -> Option<f64> {
     let count = s_points.len().min(y_points.len());
-    let i = bracket(y_points, count, target)?;
+    (at.bracket + 1 < count && interpolable(s_points, y_points, at.bracket))
+        .then(|| cubic(s_points, y_points, at.bracket, at.s))
+}
+
+/// Where `y` first reaches `target`: the first bracket `[s_i, s_{i+1}]` whose ends `y_i`,
+/// `y_{i+1}` hold it, and there the root of the cubic `y(s) = target` by bisection.
+pub fn first_reached(s_points: &[f64], y_points: &[f64], target: f64) -> Option<Reached> {
+    let count = s_points.len().min(y_points.len());
+    let bracket = bracket(y_points, count, target)?;
+    let s = root_in(s_points, y_points, bracket, target)?;
+    Some(Reached { s, bracket })
+}
+
+/// The root of the cubic `y(s) = target` in bracket `i`, by bisection.
+fn root_in(s_points: &[f64], y_points: &[f64], i: usize, target: f64) -> Option<f64> {
     if !interpolable(s_points, y_points, i) {
         return None;
     }
@@ -80,7 +103,7 @@ pub fn first_reached(s_points: &[f64], y_points: &[f64], target: f64) -> Option<
 
 #[cfg(test)]
 mod tests {
-    use super::{first_reached, value_at};
+    use super::{first_reached, value_at, value_in};
 
     /// A cubic is interpolated and inverted exactly, wherever the bracket is; a level the
     /// points never reach gives nothing; the first crossing counts.
@@ -93,12 +116,13 @@ mod tests {
             let v = value_at(&s, &y, at).unwrap();
             assert!((v - cubic(at)).abs() < 1e-13, "{at}: {v}");
             let back = first_reached(&s, &y, cubic(at)).unwrap();
-            assert!((back - at).abs() < 1e-13, "{at}: {back}");
+            assert!((back.s - at).abs() < 1e-13, "{at}: {back:?}");
+            assert!((value_in(&s, &y, back).unwrap() - cubic(at)).abs() < 1e-12);
         }
         assert!(value_at(&s, &y, 2.5).is_none());
         assert!(first_reached(&s, &y, cubic(2.5)).is_none());
         // y goes up and back: the first crossing of 0.5 is on the way up.
         let (s, y) = ([0.0, 1.0, 2.0], [0.0, 1.0, 0.0]);
-        assert!(first_reached(&s, &y, 0.5).unwrap() < 1.0);
+        assert!(first_reached(&s, &y, 0.5).unwrap().s < 1.0);
     }
 }

@@ -11,7 +11,7 @@
 //!   is the fold itself, not a separate event.
 //! - A **phase resonance** is where the first harmonic of the response at the phase dof lags
 //!   the force by a quarter period (`φ = π/2`, eq. (113)): the peak of a lightly damped
-//!   single-mode resonance, on the backbone to first order in the damping. Located on
+//!   single-mode resonance, on the backbone to second order in the damping. Located on
 //!   `φ − π/2` with trial points that measure the motion (the phase is not known otherwise).
 
 use crate::continuation::{ContinuationProblem, Detail, EventDetector, Segment};
