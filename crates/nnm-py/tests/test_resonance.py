@@ -3,7 +3,7 @@ from Python, against the balance evaluated here with numpy on each point's motio
 independently (``Branch.motion``: 400 samples, DOP853 to 1e-12; the branch samples its own
 motion at its integration tolerance, so the two agree to ~1e-9) and ``C`` built here from
 ``M`` and ``K``; and the bad input refused before anything is computed. The comparison with
-forced response curves is in crates/nnm/tests/energy_balance.rs."""
+forced response curves is in crates/nnm/tests/resonance.rs."""
 
 from __future__ import annotations
 
