@@ -655,7 +655,9 @@ def sweep(
     if responses is not None:
         _write_response_statistics(out / STATISTICS_CSV, rows, list(grid))
         if figures:
-            _write_amplification_figure(out, rows, tuned.cyclic[0] if tuned.cyclic else None)
+            # Whitehead's N: the disk's blades, unless the grid varies them (one line would be wrong).
+            sectors = tuned.cyclic[0] if tuned.cyclic and "model.sectors" not in grid else None
+            _write_amplification_figure(out, rows, sectors)
         return result
     _write_statistics(out / STATISTICS_CSV, rows, list(grid))
     if figures:
@@ -1173,8 +1175,8 @@ def _write_response_statistics(path: Path, rows: list[dict[str, str]], grid_keys
 
 def _write_amplification_figure(out: Path, rows: list[dict[str, str]], sectors: int | None) -> None:
     """``amplification.png``: each sample's amplification factor against ``σ``, the mean and
-    the largest per level, and Whitehead's bound for the disk's blades. Skipped without
-    matplotlib."""
+    the largest per level, and Whitehead's bound for the disk's ``sectors`` blades (``None``: not
+    drawn — a grid of ``model.sectors``). Skipped without matplotlib."""
     try:
         import matplotlib
 
