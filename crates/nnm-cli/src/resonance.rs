@@ -93,6 +93,18 @@ impl Backbone {
         value_in(&self.log_energy, &self.log_peaks, at).map(f64::exp)
     }
 
+    /// `(force amplitude, peak)` of the backbone point at `frequency`: the force whose
+    /// resonance peak energy balance puts there (eq. (111c)); `None` where the branch does not
+    /// reach the frequency or balances another force.
+    pub fn at_frequency(&self, frequency: f64) -> Option<(f64, f64)> {
+        let log_force = self.log_force.as_ref()?;
+        let at = first_reached(&self.log_energy, &self.frequencies, frequency)?;
+        Some((
+            value_in(&self.log_energy, log_force, at)?.exp(),
+            value_in(&self.log_energy, &self.log_peaks, at)?.exp(),
+        ))
+    }
+
     /// `(frequency, peak)` of the resonance peak energy balance predicts for force amplitude
     /// `level` (eq. (111c)): at the energy where the points' resonance force first reaches it.
     pub fn predicted_peak(&self, level: f64) -> Option<(f64, f64)> {

@@ -8,7 +8,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
-use nnm::analysis::{EnergyBalance, first_reached, value_in};
+use nnm::analysis::EnergyBalance;
 use nnm::forced::damping::Damping;
 use nnm::forced::{
     Force, ResponseCurve, ResponseEventKind, ResponseSettings, Sweep, forced_response,
@@ -100,41 +100,30 @@ pub(super) fn compute(
         .context("the pair (1,5)")?
         .1
         .frequency;
-    let points = &backbone.points;
-    let log_energy: Vec<f64> = points.iter().map(|p| p.energy.ln()).collect();
-    let frequencies: Vec<f64> = points.iter().map(|p| p.frequency).collect();
-    let log_force: Vec<f64> = points
-        .iter()
-        .map(|p| p.resonance.map_or(f64::NAN, |r| r.amplitude.ln()))
-        .collect();
-    let log_peak: Vec<f64> = points
-        .iter()
-        .map(|p| p.peak_displacements.first().map_or(f64::NAN, |x| x.ln()))
-        .collect();
+    // The backbone as `nnm run` sets it beside a response (the same interpolation, the same
+    // figure), found once for the sweep's range.
     let computed = [ComputedBranch {
         name: &job.name,
         output_dofs: &[BLADE],
-        points,
+        points: &backbone.points,
         balance: settings.output.energy_balance.as_deref(),
     }];
+    let range = |amplitude| Sweep::Frequency {
+        from: SWEEP.0 * linear_frequency,
+        to: SWEEP.1 * linear_frequency,
+        amplitude,
+    };
+    let beside = Backbone::find(&computed, &range(1.0), BLADE, &force)
+        .context("the (1,5) backbone has no point in the sweep's range")?;
     let system = ForcedSystem::new(structure, &damping, force.clone())?;
     let mut levels = Vec::new();
     let mut curves = Vec::new();
     for shift in SHIFTS {
         let target = linear_frequency * (1.0 + shift);
-        let s = first_reached(&log_energy, &frequencies, target)
+        let (force_level, peak) = beside
+            .at_frequency(target)
             .with_context(|| format!("the (1,5) backbone does not reach +{shift}"))?;
-        let force_level = value_in(&log_energy, &log_force, s)
-            .context("no resonance force there")?
-            .exp();
-        let peak = value_in(&log_energy, &log_peak, s)
-            .context("no peak there")?
-            .exp();
-        let sweep = Sweep::Frequency {
-            from: SWEEP.0 * linear_frequency,
-            to: SWEEP.1 * linear_frequency,
-            amplitude: force_level,
-        };
+        let sweep = range(force_level);
         let clock = std::time::Instant::now();
         let curve = forced_response(
             &system,
@@ -144,14 +133,13 @@ pub(super) fn compute(
             |_| std::ops::ControlFlow::Continue(()),
         )?;
         let seconds = clock.elapsed().as_secs_f64();
-        let beside = Backbone::find(&computed, &sweep, BLADE, &force);
         let phase_resonance = curve
             .events
             .iter()
             .find(|e| e.kind == ResponseEventKind::PhaseResonance)
             .and_then(|e| {
                 let peak = *e.point.peaks.first()?;
-                let on = beside.as_ref().and_then(|b| b.peak_at(e.point.frequency));
+                let on = beside.peak_at(e.point.frequency);
                 Some((e.point.frequency, peak, on))
             });
         curves.push((sweep, curve.clone()));
@@ -164,12 +152,11 @@ pub(super) fn compute(
             seconds,
         });
     }
-    let beside = Backbone::find(&computed, &curves[0].0, BLADE, &force);
     crate::response::plot(
         &format!("forced-{}", PAIR.replace(',', "-")),
         Some(BLADE),
         &curves,
-        beside.as_ref(),
+        Some(&beside),
         out,
     )?;
     let zeta = 0.5 * BETA * linear_frequency;

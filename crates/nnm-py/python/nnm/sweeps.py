@@ -405,6 +405,17 @@ def _row_key(row: dict[str, str], grid_keys: list[str]) -> tuple:
     return (name, tuple((k, grid_value(k)) for k in grid_keys), read("sigma", float), read("replicate", int))
 
 
+def _write_rows(path: Path, columns: list[str], rows: list[dict[str, str]]) -> None:
+    """``sweep.csv`` rewritten whole from ``rows`` (through a temporary file)."""
+    tmp = path.with_suffix(".tmp")
+    with tmp.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(columns)
+        for r in rows:
+            w.writerow([r[c] for c in columns])
+    tmp.replace(path)
+
+
 def _write_curve(path: Path, curve: dict[str, np.ndarray]) -> None:
     tmp = path.with_suffix(".tmp")
     with tmp.open("w", newline="") as f:
@@ -572,14 +583,11 @@ def sweep(
         record = {**identity, "nnm": _version(), "samples": samples, "mistuning": mistuning, "grid": grid}
         record["responses" if responses is not None else "branches"] = names
         config_path.write_text(json.dumps(record, indent=2) + "\n")
-        # Rewrite without any row cut short, then append as samples complete.
-        tmp = csv_path.with_suffix(".tmp")
-        with tmp.open("w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(columns)
-            for r in rows:
-                w.writerow([r[c] for c in columns])
-        tmp.replace(csv_path)
+        # Rewrite without any row cut short (and with the tuned peaks an earlier run lacked),
+        # then append as samples complete.
+        if responses is not None:
+            _fill_references(rows, list(grid))
+        _write_rows(csv_path, columns, rows)
 
         say(f"nnm sweep: {len(todo)} samples, {len(todo) - len(pending)} already in {csv_path}, {len(pending)} to run")
         if pending:
@@ -644,13 +652,7 @@ def sweep(
     have = {_row_key(r, list(grid)) for r in rows}
     missing = [s.name for s in todo if s.key not in have]
     if responses is not None and _fill_references(rows, list(grid)):
-        tmp = csv_path.with_suffix(".tmp")
-        with tmp.open("w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(columns)
-            for r in rows:
-                w.writerow([r[c] for c in columns])
-        tmp.replace(csv_path)
+        _write_rows(csv_path, columns, rows)
     result = SweepResult(out, rows, computed, len(todo) - len(pending), missing)
     if responses is not None:
         _write_response_statistics(out / STATISTICS_CSV, rows, list(grid))
