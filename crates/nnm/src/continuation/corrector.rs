@@ -3,6 +3,7 @@
 //! periodicity row of the shooting problem redundant).
 
 use super::{ContinuationProblem, Linearization};
+use crate::linalg;
 
 /// A converged corrector.
 #[derive(Debug)]
@@ -33,6 +34,55 @@ pub enum CorrectorError<E: std::error::Error> {
         /// Newton solves made.
         iterations: usize,
     },
+    /// An iterate left the ball the solution must lie in around the prediction: Newton is
+    /// diverging, and its next iterates (at ever larger amplitudes and farther parameters)
+    /// only cost integrations.
+    #[error("Newton iterate {distance:.2e} from the prediction, beyond its reach {reach:.2e}")]
+    OutOfReach {
+        /// Distance of the iterate from the start.
+        distance: f64,
+        /// The largest distance allowed.
+        reach: f64,
+    },
+}
+
+/// What ends a corrector: the tolerance it must meet, its iterations, and how far from the
+/// start its iterates may go.
+#[derive(Debug, Clone, Copy)]
+pub struct Limits {
+    /// The relative residual to reach.
+    pub tolerance: f64,
+    /// Newton iterations allowed (chord solves: [`CHORDS_PER_ITERATION`] times as many).
+    pub max_iterations: usize,
+    /// The largest distance of an iterate from the start (`f64::INFINITY`: unbounded).
+    pub reach: f64,
+}
+
+/// Arclength steps an iterate may stray from the prediction (docs/method.md eq. (22a)): four
+/// times the correction a step may end on (a converged correction beyond half the step is
+/// refused, eq. (25)), room for a chord's overshoot, while a diverging Newton is stopped
+/// before its iterates' motions grow costly.
+pub const REACH_IN_STEPS: f64 = 2.0;
+
+impl Limits {
+    /// `tolerance` and `max_iterations`, iterates within [`REACH_IN_STEPS`] steps of
+    /// arclength `step` from the start.
+    pub fn within_steps(tolerance: f64, max_iterations: usize, step: f64) -> Self {
+        Self {
+            tolerance,
+            max_iterations,
+            reach: REACH_IN_STEPS * step.abs(),
+        }
+    }
+
+    /// `tolerance` and `max_iterations`, any distance.
+    pub fn unbounded(tolerance: f64, max_iterations: usize) -> Self {
+        Self {
+            tolerance,
+            max_iterations,
+            reach: f64::INFINITY,
+        }
+    }
 }
 
 /// Chord solves a corrector allows per Newton iteration it allows: a chord that cuts the
@@ -42,8 +92,11 @@ pub enum CorrectorError<E: std::error::Error> {
 pub const CHORDS_PER_ITERATION: usize = 4;
 
 /// Newton from `start` on `F(u) = 0`, `direction · (u - anchor) = 0`, until the problem's
-/// relative residual is below `tolerance`; at most `max_iterations` iterations, and it gives
-/// up early when the residual grows a thousandfold. `newton_iterations` counts the solves.
+/// relative residual is below `limits.tolerance`; at most `limits.max_iterations`
+/// iterations, and it gives up early when the residual grows a thousandfold or an iterate
+/// goes farther than `limits.reach` from `start` (a relative residual can stay bounded while
+/// Newton runs off to huge amplitudes: the bladed disk's forced curve once spent 200 s
+/// integrating one such iterate). `newton_iterations` counts the solves.
 ///
 /// A problem may linearise some iterates by a chord (a neighbour's Jacobian,
 /// [`Linearization::is_exact`] false): those solves are cheap, and they are not counted as
@@ -55,10 +108,14 @@ pub fn correct<P: ContinuationProblem>(
     start: &[f64],
     direction: &[f64],
     anchor: &[f64],
-    tolerance: f64,
-    max_iterations: usize,
+    limits: Limits,
     newton_iterations: &mut usize,
 ) -> Result<Corrected<P::Evaluation>, CorrectorError<P::Error>> {
+    let Limits {
+        tolerance,
+        max_iterations,
+        reach,
+    } = limits;
     let mut u = start.to_vec();
     let mut first_residual = None;
     let (mut exact, mut chords) = (0usize, 0usize);
@@ -103,5 +160,9 @@ pub fn correct<P: ContinuationProblem>(
             *x += d;
         }
         *newton_iterations += 1;
+        let distance = linalg::distance(&u, start);
+        if distance > reach {
+            return Err(CorrectorError::OutOfReach { distance, reach });
+        }
     }
 }

@@ -2,7 +2,7 @@
 
 use std::collections::VecDeque;
 
-use super::corrector::{Corrected, correct};
+use super::corrector::{Corrected, Limits, correct};
 use super::predictor::{predict, predict_curved, tangent};
 use super::step::StepControl;
 use super::{
@@ -170,8 +170,7 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             &u0,
             &pin,
             &u0,
-            settings.tolerance,
-            settings.max_iterations,
+            Limits::unbounded(settings.tolerance, settings.max_iterations),
             &mut self.stats.newton_iterations,
         )
         .map_err(|e| ContinuationError::FirstPoint(e.into()))?;
@@ -230,13 +229,18 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             let anchor = predict(&u, &t, step);
             let predicted =
                 predict_curved(&u, &t, bend.as_ref().map(|(t0, l)| (&t0[..], *l)), step);
+            // The smallest step is the branch's last chance: its corrector may go anywhere.
+            let limits = if at_minimum {
+                Limits::unbounded(settings.tolerance, settings.max_iterations)
+            } else {
+                Limits::within_steps(settings.tolerance, settings.max_iterations, step)
+            };
             let outcome = correct(
                 self.problem,
                 &predicted,
                 &t,
                 &anchor,
-                settings.tolerance,
-                settings.max_iterations,
+                limits,
                 &mut self.stats.newton_iterations,
             );
             // A failure is retried at half the step, or ends the branch at the minimum step.
@@ -259,13 +263,7 @@ impl<'p, P: ContinuationProblem, D: EventDetector<P>> Continuation<'p, P, D> {
             // a neighbouring branch (tangents there can be parallel, so the angle test alone
             // misses it): retry with a smaller step. On a smooth branch the correction is
             // ~κs²/2, below s/4 whenever the turn-angle test passes.
-            let correction: f64 = corrected
-                .u
-                .iter()
-                .zip(&predicted)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum::<f64>()
-                .sqrt();
+            let correction = linalg::distance(&corrected.u, &predicted);
             let suspicious = correction > 0.5 * step
                 || corrected.iterations > 2 * settings.target_iterations.max(1);
             let t_new = tangent(&corrected.evaluation, &t);
@@ -433,14 +431,14 @@ impl<'s, P: ContinuationProblem> Segment<'s, P> {
         let guess: Vec<f64> = ua.iter().zip(ub).map(|(a, b)| a + w * (b - a)).collect();
         let anchor = predict(u0, t0, s);
         let settings = self.settings;
+        let length = self.length();
         let mut solve = |tolerance: f64| {
             correct(
                 self.problem,
                 &guess,
                 t0,
                 &anchor,
-                tolerance,
-                settings.max_iterations,
+                Limits::within_steps(tolerance, settings.max_iterations, length),
                 &mut self.newton_iterations,
             )
         };

@@ -232,3 +232,66 @@ fn a_step_cap_bounds_the_next_step_and_no_other() {
         "{uncapped} then {after}"
     );
 }
+
+/// `F(x, y) = atan x`: Newton converges from `|x| < 1.39` and runs off to ever larger `|x|`
+/// beyond, while the residual stays below `π/2` — the divergence a residual test misses.
+struct Arctangent {
+    evaluations: usize,
+}
+
+impl ContinuationProblem for Arctangent {
+    type Evaluation = CircleLinearization;
+    type Point = ();
+    type Error = Failed;
+    fn dimension(&self) -> usize {
+        2
+    }
+    fn evaluate(&mut self, u: &[f64]) -> Result<CircleLinearization, Failed> {
+        self.evaluations += 1;
+        Ok(CircleLinearization {
+            residual: [u[0].atan()],
+            gradient: [1.0 / (1.0 + u[0] * u[0]), 0.0],
+        })
+    }
+    fn point(&mut self, _: &Solution, _: &CircleLinearization, _: Detail) -> Result<(), Failed> {
+        Ok(())
+    }
+    fn amplitude(&self, _u: &[f64]) -> f64 {
+        1.0
+    }
+}
+
+/// A diverging Newton is stopped as soon as an iterate leaves the reach, after one solve,
+/// where without a reach it spends every iteration it is allowed (and ends at |x| ~ 1e84);
+/// a converging Newton within the reach is not hampered by it.
+#[test]
+fn a_diverging_corrector_stops_at_its_reach() {
+    use corrector::{CorrectorError, Limits, correct};
+    let pin = [0.0, 1.0];
+    let run = |x0: f64, limits: Limits| {
+        let mut problem = Arctangent { evaluations: 0 };
+        let start = [x0, 0.0];
+        let mut solves = 0;
+        let outcome = correct(&mut problem, &start, &pin, &start, limits, &mut solves);
+        (outcome.map(|c| c.u[0]), problem.evaluations)
+    };
+    let (unbounded, evaluations) = run(2.0, Limits::unbounded(1e-12, 8));
+    assert!(
+        matches!(unbounded, Err(CorrectorError::NoConvergence { .. })),
+        "{unbounded:?}"
+    );
+    assert_eq!(evaluations, 9);
+    let reach = Limits {
+        reach: 10.0,
+        ..Limits::unbounded(1e-12, 8)
+    };
+    let (stopped, evaluations) = run(2.0, reach);
+    // 2 → −3.54 → 13.95: the second iterate is 11.95 from the start.
+    assert!(
+        matches!(stopped, Err(CorrectorError::OutOfReach { distance, .. }) if distance > 10.0),
+        "{stopped:?}"
+    );
+    assert_eq!(evaluations, 2);
+    let (converged, _) = run(0.5, reach);
+    assert!(converged.unwrap().abs() < 1e-12);
+}

@@ -4,6 +4,7 @@
 
 use std::ops::ControlFlow;
 
+use crate::continuation::corrector::Limits;
 use crate::continuation::{Continuation, ContinuationError, ContinuationSettings, Item};
 use crate::integrate::forced::{ForcedCollocation, ForcedIntegrator, ForcedRungeKutta};
 use crate::integrate::{
@@ -550,8 +551,11 @@ fn land_on_end<S: MechanicalSystem + ?Sized>(
         &guess,
         &pin,
         &guess,
-        settings.continuation.tolerance,
-        settings.continuation.max_iterations,
+        Limits::within_steps(
+            settings.continuation.tolerance,
+            settings.continuation.max_iterations,
+            last.step,
+        ),
         iterations,
     ) else {
         return;
