@@ -381,6 +381,7 @@ pub fn unfinished(outcomes: &[CurveOutcome]) -> (usize, Vec<String>, Vec<String>
             Some(Ok(c)) => match &c.stop {
                 ResponseStop::Stopped => interrupted += 1,
                 ResponseStop::Failed(why) => early.push(format!("{who}: {why}")),
+                ResponseStop::Closed(_) => early.push(format!("{who}: {}", stop_name(&c.stop))),
                 _ => {}
             },
         }

@@ -228,10 +228,12 @@ pub fn response<'py>(
                 ResponseStop::Start => "start",
                 ResponseStop::MaxPoints => "max-points",
                 ResponseStop::Failed(_) => "failed",
+                ResponseStop::Closed(_) => "closed",
             };
             out.set_item("stop_kind", kind)?;
             let (stop, error) = match &curve.stop {
                 ResponseStop::Failed(m) => (format!("failed: {m}"), Some(m.clone())),
+                ResponseStop::Closed(_) => (nnm_io::output::stop_name(&curve.stop), None),
                 ResponseStop::End => ("reached the end of the sweep".into(), None),
                 ResponseStop::Start => ("turned back out of the start of the sweep".into(), None),
                 ResponseStop::MaxPoints => (

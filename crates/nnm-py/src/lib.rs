@@ -42,6 +42,12 @@ fn _nnm(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "RESPONSE_SETTINGS_KEYS",
         nnm_io::job::RESPONSE_SETTINGS_KEYS.to_vec(),
     )?;
+    let response_defaults = toml::Table::try_from(nnm::forced::ResponseSettings::default())
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    m.add(
+        "RESPONSE_DEFAULTS",
+        convert::from_toml(m.py(), &toml::Value::Table(response_defaults))?,
+    )?;
     m.add("SETTINGS_KEYS", nnm::Settings::KEYS.to_vec())?;
     m.add("FAMILIES", nnm_io::job::family_names().to_vec())?;
     m.add("POINT_COLUMNS", results::point_columns())?;

@@ -180,3 +180,21 @@ def test_a_mistuned_sample_spends_on_its_trials_what_its_points_cost() -> None:
     assert response.stop_kind == "end", response.stop
     per_integration = response.stats["integration_steps"] / response.stats["integrations"]
     assert per_integration < 4 * np.max(response.integration_steps), (per_integration, response.stats)
+
+
+def test_a_curve_that_closes_on_a_loop_stops_and_its_sample_is_computed_again() -> None:
+    """Draw 877 of the example sweep at σ = 0.02: at the default largest step the curve jumps
+    onto an isolated loop near 2.13 rad/s and used to circle it until its 2,000 points ran out
+    (59 s, a peak 19% below the tuned disk's); it now stops as soon as it comes back onto
+    itself, and the sweep's sample is computed again at half the step, which covers the whole
+    sweep (docs/method.md §19)."""
+    job = ROOT / "examples" / "forced-bladed-disk.toml"
+    sample = next(s for s in sweeps.plan(["eo5"], samples=878, mistuning=[0.02]) if s.replicate == 877)
+    draw = 0.02 * sweeps.mistuning_draw(0, 877, 30)
+    model = nnm.Model.from_job(job, {"model.blade_stiffness_mistuning": [float(d) for d in draw]})
+    closed = nnm.job_response(model, "eo5", progress=False, raise_on_failure=False)
+    assert closed.stop_kind == "closed", closed.stop
+    assert len(closed) < 100 and closed.stop.startswith("closed on itself at point")
+    row = sweeps.run_response_sample(str(job), sample, 0)["row"]
+    assert (row["status"], row["stop"]) == ("ok", "end"), row
+    assert row["message"] == "closed on a loop at max_step 0.1; complete at 0.05"

@@ -356,6 +356,10 @@ pub fn stop_name(stop: &nnm::forced::ResponseStop) -> String {
         ResponseStop::MaxPoints => "reached max_points".into(),
         ResponseStop::Stopped => "interrupted".into(),
         ResponseStop::Failed(why) => format!("failed: {why}"),
+        ResponseStop::Closed(point) => format!(
+            "closed on itself at point {point}: a step jumped onto an isolated loop of \
+             responses, away from the curve of the sweep (a smaller max_step may keep it on)"
+        ),
     }
 }
 

@@ -72,9 +72,9 @@ class Response:
     is 0). Also ``events`` (list of :class:`ResponseEvent`), ``parameter``
     (``"frequency"`` or ``"amplitude"``: what was continued), ``force`` (the
     :class:`Force`, at the curve's amplitude), ``stop`` (why it ended, in words),
-    ``stop_kind`` (``"end"``, ``"start"``, ``"max-points"``, ``"callback"``,
-    ``"interrupted"``, ``"failed"`` or ``"first-point"``), ``integrator``, ``stats`` and
-    ``wall_time``.
+    ``stop_kind`` (``"end"``, ``"start"``, ``"max-points"``, ``"closed"`` (back onto
+    itself: an isolated loop), ``"callback"``, ``"interrupted"``, ``"failed"`` or
+    ``"first-point"``), ``integrator``, ``stats`` and ``wall_time``.
     """
 
     # The annotations are for type checkers, which cannot read the library's list; a test holds

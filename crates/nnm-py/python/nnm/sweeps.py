@@ -67,7 +67,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from . import _checks
+from . import _checks, _nnm
 from ._model import Model, backbone, modes
 from ._response import job_response
 
@@ -88,6 +88,11 @@ MOTION_SAMPLES = 32
 #: a branch followed (about a second of a core) and a row held in memory, so a count beyond it
 #: (``samples=10**400``) is refused up front instead of filling the memory while planning.
 MAX_SAMPLES = 1_000_000
+
+#: Times a forced sample's curve that closed on itself (a step that jumped onto an isolated
+#: loop) is computed again, each at half the largest step of the last: one of the example's
+#: 1,000 mistuned disks closed at 0.1 and covered its sweep at 0.05.
+CLOSED_CURVE_RETRIES = 2
 
 #: Processes of a local cluster per core of this machine, at most: each computes on one thread,
 #: and more only wait (``workers=10**6`` started processes until the system killed the sweep).
@@ -1090,10 +1095,23 @@ def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
             raise ValueError("mistuning applies to a bladed disk (`family = \"bladed-disk\"`); vary other models with a grid")
         deviations = sample.sigma * mistuning_draw(seed, sample.replicate, cyclic[0])
         model = Model.from_job(job, {**overrides, "model.blade_stiffness_mistuning": deviations.tolist()})
-    response = job_response(model, sample.branch, progress=False, raise_on_failure=False)
-    if isinstance(response, list):  # `amplitudes = [a]`: its one level
-        response = response[0]
-    error = response.stop if response.stop_kind in ("failed", "first-point") else ""
+    def curve(**settings: Any) -> Any:
+        response = job_response(model, sample.branch, progress=False, raise_on_failure=False, **settings)
+        return response[0] if isinstance(response, list) else response  # `amplitudes = [a]`: one level
+
+    response = curve()
+    # A curve that closed on itself jumped onto an isolated loop in a step too long: computed
+    # again at half the largest step, then a quarter (docs/method.md §20).
+    max_step = model._native.job_response(sample.branch).get("max_step", _nnm.RESPONSE_DEFAULTS["max_step"])
+    retried = []
+    while response.stop_kind == "closed" and len(retried) < CLOSED_CURVE_RETRIES:
+        retried.append(max_step)
+        max_step /= 2
+        response = curve(max_step=max_step)
+    # A curve that did not cover its sweep (failed, closed on a loop, out of points) cannot say
+    # where the largest peak is: its row is failed, with why, and left out of the statistics.
+    error = "" if response.stop_kind == "end" else response.stop
+    note = f"closed on a loop at max_step {retried[0]:g}; complete at {max_step:g}" if retried and not error else ""
     peaks = np.asarray(response.peaks, dtype=float)
     peaks = peaks.reshape(len(response), -1) if len(response) else np.zeros((0, 1))
     row: dict[str, Any] = {
@@ -1111,7 +1129,7 @@ def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
         "folds": len(response.folds),
         "stop": response.stop_kind,
         "status": "failed" if error else "ok",
-        "message": error,
+        "message": error or note,
     }
     if peaks.size:
         point, column = np.unravel_index(int(np.nanargmax(peaks)), peaks.shape)

@@ -97,6 +97,10 @@ pub enum ResponseStop {
     Stopped,
     /// The continuation failed (the message says why); the points so far are kept.
     Failed(String),
+    /// The curve came back onto itself at this earlier point: it runs round a closed loop,
+    /// which the curve from the start of the sweep cannot be (it leaves the linear regime at
+    /// both ends), so a step jumped onto an isolated loop of responses.
+    Closed(usize),
 }
 
 /// What a curve's observer is shown.
@@ -134,6 +138,39 @@ pub enum ResponseError {
     /// The first point did not converge.
     #[error(transparent)]
     Continuation(#[from] ContinuationError),
+}
+
+/// Arclength, in steps of the last point, the curve must have run since an earlier point
+/// before coming back to it counts as closing (nearer ones are its neighbours).
+const CLOSING_ARCLENGTH_IN_STEPS: f64 = 10.0;
+
+/// The index of an earlier point the last one of `points` has come back to ([`closes`]).
+fn returns_to(points: &[ResponsePoint]) -> Option<usize> {
+    let path: Vec<_> = (points.iter())
+        .map(|p| (&p.unknowns[..], &p.tangent[..], p.step))
+        .collect();
+    closes(&path)
+}
+
+/// The index of an earlier point of `path` (unknowns, unit tangent, the step that led there)
+/// its last point has come back to: within the last step of it, moving the same way (tangents
+/// within 25°), after at least [`CLOSING_ARCLENGTH_IN_STEPS`] steps of arclength. A curve in
+/// `2n + 1` dimensions does not pass that close to itself unless it retraces a loop (a
+/// mistuned disk's curve once circled between 2.130 and 2.136 rad/s until its 2,000 points
+/// ran out; docs/method.md §19).
+pub(super) fn closes(path: &[(&[f64], &[f64], f64)]) -> Option<usize> {
+    let ((u, t, step), before) = path.split_last()?;
+    let mut arclength = *step;
+    for (j, (earlier_u, earlier_t, earlier_step)) in before.iter().enumerate().rev() {
+        if arclength > CLOSING_ARCLENGTH_IN_STEPS * step
+            && linalg::distance(earlier_u, u) < *step
+            && linalg::dot(earlier_t, t) > 0.9
+        {
+            return Some(j);
+        }
+        arclength += earlier_step;
+    }
+    None
 }
 
 /// The integrator for `method` (resolved from `auto` at `frequency`): explicit DOP853 for
@@ -494,6 +531,9 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         }
         if points.len() >= settings.max_points {
             break ResponseStop::MaxPoints;
+        }
+        if let Some(earlier) = returns_to(&points) {
+            break ResponseStop::Closed(earlier);
         }
         // Land on the end of the sweep rather than past it (docs/method.md eq. (26c)).
         let cap = (tangent > 0.0).then(|| (end - p) / width / tangent * 1.0000001);

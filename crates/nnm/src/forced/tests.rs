@@ -168,3 +168,43 @@ fn bad_sweeps_and_damping_are_refused_before_anything_is_computed() {
         assert!(error.to_string().contains(message), "{error}");
     }
 }
+
+/// The first prefix of a path whose last point [`curve::closes`] finds back on the path, and
+/// the earlier point it names (`None` when no prefix closes).
+fn first_closing(points: &[(Vec<f64>, Vec<f64>)], step: f64) -> Option<(usize, usize)> {
+    let path: Vec<_> = (points.iter())
+        .map(|(u, t)| (&u[..], &t[..], step))
+        .collect();
+    (1..=path.len()).find_map(|k| curve::closes(&path[..k]).map(|j| (k - 1, j)))
+}
+
+/// A circle walked in steps of 0.1 rad closes as soon as the second lap passes its start
+/// (point 62, at 6.2 rad, 0.083 from point 0: within its step); a helix rising 0.05 a radian, 0.31 a lap
+/// above its first, never does, nor does a hairpin that comes back beside itself (0.05
+/// apart, within a step) running the other way.
+#[test]
+fn a_curve_that_retraces_a_loop_is_found_closed_and_no_other() {
+    let h = 0.1;
+    let circle: Vec<_> = (0..100)
+        .map(|k| {
+            let a = k as f64 * h;
+            (vec![a.cos(), a.sin(), 0.0], vec![-a.sin(), a.cos(), 0.0])
+        })
+        .collect();
+    assert_eq!(first_closing(&circle, h), Some((62, 0)));
+    let helix: Vec<_> = (0..200)
+        .map(|k| {
+            let a = k as f64 * h;
+            let norm = (1.0f64 + 0.05 * 0.05).sqrt();
+            (
+                vec![a.cos(), a.sin(), 0.05 * a],
+                vec![-a.sin() / norm, a.cos() / norm, 0.05 / norm],
+            )
+        })
+        .collect();
+    assert_eq!(first_closing(&helix, h), None);
+    let out = (0..30).map(|k| (vec![k as f64 * h, 0.0, 0.0], vec![1.0, 0.0, 0.0]));
+    let back = (0..30).map(|k| (vec![(29 - k) as f64 * h, 0.05, 0.0], vec![-1.0, 0.0, 0.0]));
+    let hairpin: Vec<_> = out.chain(back).collect();
+    assert_eq!(first_closing(&hairpin, h), None);
+}
