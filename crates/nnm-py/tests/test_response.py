@@ -16,7 +16,8 @@ import scipy.linalg
 import scipy.sparse as sp
 
 import nnm
-from conftest import check_declared_columns, cli_error
+from conftest import ROOT, check_declared_columns, cli_error
+from nnm import sweeps
 
 # A three-dof chain, fixed at one end, with a non-proportional damper between dofs 1 and 2.
 M3 = np.diag([1.0, 2.0, 1.5])
@@ -107,6 +108,21 @@ def test_force_amplitude_continuation_is_proportional_for_a_linear_model():
     np.testing.assert_array_equal(r.frequency, omega)
     assert r.force_amplitude[0] == 0.1 and abs(r.force_amplitude[-1] / 2.0 - 1) < 1e-9
     check_linear(r, M3, K3, C3, F3, 1e-9)
+
+
+def test_the_response_defaults_are_the_settings_a_curve_gets():
+    """``nnm.RESPONSE_DEFAULTS`` holds a value for every setting, and they are the ones a curve
+    runs with: given explicitly, the same curve to the last digit; a different ``max_step``
+    gives another."""
+    assert set(nnm.RESPONSE_DEFAULTS) == set(nnm.RESPONSE_SETTINGS_KEYS)
+    model = nnm.duffing(natural_frequency=1.0, cubic=1.0, damping=[[0.05]])
+    force = nnm.Force(dofs=[0], amplitude=0.1)
+    plain = nnm.frequency_response(model, force, (0.5, 2.5), progress=False)
+    given = nnm.frequency_response(model, force, (0.5, 2.5), progress=False, **nnm.RESPONSE_DEFAULTS)
+    halved = nnm.frequency_response(model, force, (0.5, 2.5), progress=False,
+                                    max_step=nnm.RESPONSE_DEFAULTS["max_step"] / 2)
+    np.testing.assert_array_equal(plain.frequency, given.frequency)
+    assert len(halved) != len(plain)
 
 
 # Duffing x'' + 0.02 x' + x + x³ = 0.1 cos Ωt: fold frequencies from an independent
@@ -518,3 +534,63 @@ def test_a_jobs_response_runs_on_its_model_as_written():
         assert [e.kind for e in a.events] == [e.kind for e in b.events]
     with pytest.raises(ValueError, match=r"^the job has no response `nope` \(its responses: `frc`\)$"):
         nnm.job_response(model, "nope")
+
+
+def test_a_mistuned_sample_spends_on_its_trials_what_its_points_cost() -> None:
+    """The example sweep's first draw at σ = 0.02, whose curve once spent 209 s of 213 in one
+    continuation step: its corrector ran off to |z0| ~ 1e5 and Ω ~ 0.004 while the residual,
+    relative to the iterate, stayed bounded, and DOP853 took 1.6 million steps through those
+    trial motions. Held within the corrector's reach (docs/method.md eq. (22a)), an integration
+    costs what a converged point's period does (about 15 steps here), not forty times that."""
+    draw = 0.02 * sweeps.mistuning_draw(0, 0, 30)
+    model = nnm.Model.from_job(
+        ROOT / "examples" / "forced-bladed-disk.toml",
+        {"model.blade_stiffness_mistuning": [float(d) for d in draw]},
+    )
+    response = nnm.job_response(model, "eo5")
+    assert response.stop_kind == "end", response.stop
+    per_integration = response.stats["integration_steps"] / response.stats["integrations"]
+    assert per_integration < 4 * np.max(response.integration_steps), (per_integration, response.stats)
+
+
+def test_a_curve_that_closes_on_a_loop_stops_and_its_sample_is_computed_again() -> None:
+    """Draw 877 of the example sweep at σ = 0.02: at the default largest step the curve jumps
+    onto an isolated loop near 2.13 rad/s and used to circle it until its 2,000 points ran out
+    (59 s, a peak 19% below the tuned disk's); it now stops as soon as it comes back onto
+    itself, and the sweep's sample is computed again at half the step, which covers the whole
+    sweep (docs/method.md §19)."""
+    job = ROOT / "examples" / "forced-bladed-disk.toml"
+    sample = next(s for s in sweeps.plan(["eo5"], samples=878, mistuning=[0.02]) if s.replicate == 877)
+    draw = 0.02 * sweeps.mistuning_draw(0, 877, 30)
+    model = nnm.Model.from_job(job, {"model.blade_stiffness_mistuning": [float(d) for d in draw]})
+    closed = nnm.job_response(model, "eo5", progress=False, raise_on_failure=False)
+    assert closed.stop_kind == "closed", closed.stop
+    assert len(closed) < 100 and closed.stop.startswith("closed on itself at point")
+    row = sweeps.run_response_sample(str(job), sample, 0)["row"]
+    assert (row["status"], row["stop"]) == ("ok", "end"), row
+    assert row["message"] == "closed on a loop at max_step 0.1; complete at 0.05"
+
+
+def test_a_sweep_sample_short_of_its_sweeps_end_is_a_failed_row(write_job) -> None:
+    """A curve cut at ``max_points`` has not seen the rest of its range, so its largest peak
+    says nothing: the row is failed, with the curve's own reason, not a peak to average."""
+    job = write_job(
+        """
+[model]
+family = "bladed-disk"
+sectors = 8
+cubic = 0.0
+damping = { rayleigh = [0.0, 4e-3] }
+
+[[response]]
+name = "eo2"
+force = { engine_order = 2, amplitude = 0.01, sector_dof = 1 }
+frequency_start = 1.9
+frequency_end = 2.7
+max_points = 5
+"""
+    )
+    sample = sweeps.plan(["eo2"])[0]
+    row = sweeps.run_response_sample(str(job), sample, 0)["row"]
+    assert (row["status"], row["stop"], row["points"]) == ("failed", "max-points", 5), row
+    assert row["message"] == "max_points (5) reached"

@@ -301,7 +301,8 @@ pub struct CurveRecord {
     pub fixed: f64,
     pub points: usize,
     pub events: usize,
-    /// `end`, `start`, `max-points`, `stopped`, or why the curve failed.
+    /// How the curve ended, in words ([`stop_name`]): the end or start of the sweep,
+    /// `max_points`, interrupted, closed on itself, or why it failed.
     pub stop_reason: String,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub integrator: Option<&'static str>,

@@ -26,6 +26,8 @@ Figures: :mod:`nnm.plot`. Errors: ``ValueError``/``TypeError`` for bad input,
 points so far.
 """
 
+from types import MappingProxyType
+
 from ._branch import Branch, Event, Motion, switch
 from ._elements import Cubic, Polynomial, Tensor
 from ._errors import ContinuationError, NumericalError
@@ -42,8 +44,12 @@ from ._model import (
     von_karman_beam,
 )
 from ._nnm import RESPONSE_SETTINGS_KEYS, SETTINGS_KEYS, __version__
+from ._nnm import RESPONSE_DEFAULTS as _RESPONSE_DEFAULTS
 from ._response import Force, Response, ResponseEvent, Responses, force_response, frequency_response, job_response
 from .sweeps import sweep
+
+#: A forced response's default settings (read-only: the library's, which a curve runs with).
+RESPONSE_DEFAULTS = MappingProxyType(_RESPONSE_DEFAULTS)
 
 __all__ = [
     "Branch",
@@ -56,6 +62,7 @@ __all__ = [
     "Motion",
     "NumericalError",
     "Polynomial",
+    "RESPONSE_DEFAULTS",
     "RESPONSE_SETTINGS_KEYS",
     "Response",
     "ResponseEvent",

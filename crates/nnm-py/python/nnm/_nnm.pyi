@@ -10,6 +10,8 @@ POINT_COLUMNS: list[tuple[str, str, str, str, str, bool, bool]]
 __version__: str
 # The keys of a forced response's settings (nnm_io::job::RESPONSE_SETTINGS_KEYS).
 RESPONSE_SETTINGS_KEYS: list[str]
+# Their defaults (nnm::forced::ResponseSettings::default()).
+RESPONSE_DEFAULTS: dict[str, Any]
 # The columns of a response's points, as POINT_COLUMNS for a branch's.
 RESPONSE_COLUMNS: list[tuple[str, str, str, str, str, bool, bool]]
 

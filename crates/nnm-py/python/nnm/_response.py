@@ -392,10 +392,11 @@ def frequency_response(
     Other keywords are the response's settings, with the job file's names, meanings and
     defaults: ``tolerance``, ``initial_step``, ``min_step``, ``max_step``,
     ``max_iterations``, ``target_iterations``, ``max_turn_angle`` (steps are absolute in
-    unknowns scaled so that the whole curve spans a few units; defaults 0.02 and at most
-    0.05), ``integrator``, ``integration_factor``, ``events``, ``max_points`` (default 2000)
-    and ``samples`` (of a period, for the peaks; default 128). An unknown keyword raises
-    ``ValueError`` listing them (``nnm.RESPONSE_SETTINGS_KEYS``).
+    unknowns scaled so that the whole curve spans a few units; first 0.02, at most 0.1),
+    ``integrator``, ``integration_factor``, ``events``, ``max_points`` (default 2000) and
+    ``samples`` (of a period, for the peaks; default 32) — every default in
+    ``nnm.RESPONSE_DEFAULTS``. An unknown keyword raises ``ValueError`` listing them
+    (``nnm.RESPONSE_SETTINGS_KEYS``).
 
     The computation runs without the GIL. Ctrl-C stops it between points, raising
     ``KeyboardInterrupt`` whose ``response`` holds the points computed so far (``responses``:

@@ -35,7 +35,8 @@ content (SHA-256 of it and of the files it names), the seed, the grid's keys,
 what changed, before anything is written (the rows would not be this sweep's); a row of
 ``sweep.csv`` that cannot be read is refused with the file and its line. A worker lost
 mid-sample is replaced by Dask and its sample rerun elsewhere; samples whose branch fails
-numerically are kept as rows with ``status = "failed"`` and the reason; a sample that raises
+numerically, or whose forced curve does not reach the end of its sweep, are kept as rows with
+``status = "failed"`` and the reason; a sample that raises
 on its worker has no row (``SweepResult.missing``; a rerun computes it).
 
 A sweep of **forced responses** (``responses=[...]``, ``--response NAME``) runs a job's
@@ -90,8 +91,9 @@ MOTION_SAMPLES = 32
 MAX_SAMPLES = 1_000_000
 
 #: Times a forced sample's curve that closed on itself (a step that jumped onto an isolated
-#: loop) is computed again, each at half the largest step of the last: one of the example's
-#: 1,000 mistuned disks closed at 0.1 and covered its sweep at 0.05.
+#: loop) or turned back out of the start of its sweep is computed again, each at half the
+#: largest step of the last: three of the example's 1,000 mistuned disks did one or the other
+#: at 0.1 and covered their sweep at 0.05.
 CLOSED_CURVE_RETRIES = 2
 
 #: Processes of a local cluster per core of this machine, at most: each computes on one thread,
@@ -1084,8 +1086,10 @@ def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
     (one force level) on it. Returns ``{"row": ..., "curve": ...}``: the row's largest
     amplitude of the output dofs (every blade for an engine-order force) over the curve, the
     blade and frequency where it is reached, the folds; the amplification against the tuned
-    disk is the driver's (it needs the tuned sample). A curve that fails numerically gives a
-    row with ``status = "failed"`` and the points it reached; bad input raises."""
+    disk is the driver's (it needs the tuned sample). A curve that closes on an isolated loop
+    or turns back out of the start of its sweep is computed again at half the largest step (:data:`CLOSED_CURVE_RETRIES` times at most);
+    one that fails numerically or does not reach the end of its sweep gives a row with
+    ``status = "failed"``, why, and the points it reached; bad input raises."""
     started = time.perf_counter()
     overrides = dict(sample.parameters)
     model = Model.from_job(job, overrides)
@@ -1100,18 +1104,26 @@ def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
         return response[0] if isinstance(response, list) else response  # `amplitudes = [a]`: one level
 
     response = curve()
-    # A curve that closed on itself jumped onto an isolated loop in a step too long: computed
-    # again at half the largest step, then a quarter (docs/method.md §20).
-    max_step = model._native.job_response(sample.branch).get("max_step", _nnm.RESPONSE_DEFAULTS["max_step"])
-    retried = []
-    while response.stop_kind == "closed" and len(retried) < CLOSED_CURVE_RETRIES:
+    # A curve that closed on itself jumped onto an isolated loop in a step too long, and one
+    # that came back out of the start of its sweep jumped across its own folds: computed again
+    # at half the largest step, then a quarter (docs/method.md §19), not below the smallest.
+    table = model._native.job_response(sample.branch)
+    max_step, min_step = (table.get(k, _nnm.RESPONSE_DEFAULTS[k]) for k in ("max_step", "min_step"))
+    retried, first_stop = [], "closed on a loop" if response.stop_kind == "closed" else "turned back"
+    while response.stop_kind in ("closed", "start") and len(retried) < CLOSED_CURVE_RETRIES and max_step / 2 >= min_step:
         retried.append(max_step)
         max_step /= 2
         response = curve(max_step=max_step)
     # A curve that did not cover its sweep (failed, closed on a loop, out of points) cannot say
     # where the largest peak is: its row is failed, with why, and left out of the statistics.
     error = "" if response.stop_kind == "end" else response.stop
-    note = f"closed on a loop at max_step {retried[0]:g}; complete at {max_step:g}" if retried and not error else ""
+    note = ""
+    if retried:
+        tried = ", ".join(f"{s:g}" for s in retried)
+        if error:
+            error += f" (also at max_step {tried})"
+        else:
+            note = f"{first_stop} at max_step {tried}; complete at {max_step:g}"
     peaks = np.asarray(response.peaks, dtype=float)
     peaks = peaks.reshape(len(response), -1) if len(response) else np.zeros((0, 1))
     row: dict[str, Any] = {

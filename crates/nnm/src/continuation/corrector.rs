@@ -34,10 +34,10 @@ pub enum CorrectorError<E: std::error::Error> {
         /// Newton solves made.
         iterations: usize,
     },
-    /// An iterate left the ball the solution must lie in around the prediction: Newton is
+    /// An iterate left the ball the solution must lie in around the start: Newton is
     /// diverging, and its next iterates (at ever larger amplitudes and farther parameters)
     /// only cost integrations.
-    #[error("Newton iterate {distance:.2e} from the prediction, beyond its reach {reach:.2e}")]
+    #[error("Newton iterate {distance:.2e} from its start, beyond its reach {reach:.2e}")]
     OutOfReach {
         /// Distance of the iterate from the start.
         distance: f64,

@@ -431,7 +431,9 @@ impl<'s, P: ContinuationProblem> Segment<'s, P> {
         let guess: Vec<f64> = ua.iter().zip(ub).map(|(a, b)| a + w * (b - a)).collect();
         let anchor = predict(u0, t0, s);
         let settings = self.settings;
-        let length = self.length();
+        // A step taken at the minimum (where its corrector may go anywhere) can end far
+        // from its tangent's arclength: the reach covers the chord between the ends too.
+        let length = (self.length().abs()).max(linalg::distance(&self.next.u, &self.previous.u));
         let mut solve = |tolerance: f64| {
             correct(
                 self.problem,

@@ -162,7 +162,9 @@ pub(super) fn closes(path: &[(&[f64], &[f64], f64)]) -> Option<usize> {
     let ((u, t, step), before) = path.split_last()?;
     let mut arclength = *step;
     for (j, (earlier_u, earlier_t, earlier_step)) in before.iter().enumerate().rev() {
+        // The parameter first: one coordinate rules out most points without the distance.
         if arclength > CLOSING_ARCLENGTH_IN_STEPS * step
+            && (earlier_u.last()? - u.last()?).abs() < *step
             && linalg::distance(earlier_u, u) < *step
             && linalg::dot(earlier_t, t) > 0.9
         {
@@ -594,7 +596,8 @@ fn land_on_end<S: MechanicalSystem + ?Sized>(
         Limits::within_steps(
             settings.continuation.tolerance,
             settings.continuation.max_iterations,
-            last.step,
+            last.step
+                .max(linalg::distance(&before.unknowns, &last.unknowns)),
         ),
         iterations,
     ) else {
