@@ -17,6 +17,23 @@ matplotlib.use("Agg")  # figures render headless
 ROOT = Path(__file__).resolve().parents[3]
 
 
+# An 8-blade linear disk under engine order 2, with Rayleigh damping: the forced sweeps' test
+# model (its linear responses are a complex solve away).
+LINEAR_DISK = """
+[model]
+family = "bladed-disk"
+sectors = 8
+cubic = 0.0
+damping = { rayleigh = [0.0, 4e-3] }
+
+[[response]]
+name = "eo2"
+force = { engine_order = 2, amplitude = 0.01, sector_dof = 1 }
+frequency_start = 1.9
+frequency_end = 2.7
+"""
+
+
 @pytest.fixture(scope="session")
 def cli() -> Path:
     """The release build of the `nnm` binary (`scripts/test-all` builds it through

@@ -16,7 +16,7 @@ import scipy.linalg
 import scipy.sparse as sp
 
 import nnm
-from conftest import ROOT, check_declared_columns, cli_error
+from conftest import LINEAR_DISK, ROOT, check_declared_columns, cli_error
 from nnm import sweeps
 
 # A three-dof chain, fixed at one end, with a non-proportional damper between dofs 1 and 2.
@@ -574,22 +574,7 @@ def test_a_curve_that_closes_on_a_loop_stops_and_its_sample_is_computed_again() 
 def test_a_sweep_sample_short_of_its_sweeps_end_is_a_failed_row(write_job) -> None:
     """A curve cut at ``max_points`` has not seen the rest of its range, so its largest peak
     says nothing: the row is failed, with the curve's own reason, not a peak to average."""
-    job = write_job(
-        """
-[model]
-family = "bladed-disk"
-sectors = 8
-cubic = 0.0
-damping = { rayleigh = [0.0, 4e-3] }
-
-[[response]]
-name = "eo2"
-force = { engine_order = 2, amplitude = 0.01, sector_dof = 1 }
-frequency_start = 1.9
-frequency_end = 2.7
-max_points = 5
-"""
-    )
+    job = write_job(LINEAR_DISK + "max_points = 5\n")
     sample = sweeps.plan(["eo2"])[0]
     row = sweeps.run_response_sample(str(job), sample, 0)["row"]
     assert (row["status"], row["stop"], row["points"]) == ("failed", "max-points", 5), row

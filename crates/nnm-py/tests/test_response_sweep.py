@@ -14,23 +14,10 @@ import numpy as np
 import pytest
 
 import nnm
+from conftest import LINEAR_DISK
 from nnm import sweeps
 
 distributed = pytest.importorskip("distributed")
-
-LINEAR_DISK = """
-[model]
-family = "bladed-disk"
-sectors = 8
-cubic = 0.0
-damping = { rayleigh = [0.0, 4e-3] }
-
-[[response]]
-name = "eo2"
-force = { engine_order = 2, amplitude = 0.01, sector_dof = 1 }
-frequency_start = 1.9
-frequency_end = 2.7
-"""
 
 
 def rows(out: Path) -> list[dict[str, str]]:
