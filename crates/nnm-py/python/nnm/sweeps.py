@@ -1087,9 +1087,10 @@ def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
     amplitude of the output dofs (every blade for an engine-order force) over the curve, the
     blade and frequency where it is reached, the folds; the amplification against the tuned
     disk is the driver's (it needs the tuned sample). A curve that closes on an isolated loop
-    or turns back out of the start of its sweep is computed again at half the largest step (:data:`CLOSED_CURVE_RETRIES` times at most);
-    one that fails numerically or does not reach the end of its sweep gives a row with
-    ``status = "failed"``, why, and the points it reached; bad input raises."""
+    or turns back out of the start of its sweep is computed again at half the largest step
+    (:data:`CLOSED_CURVE_RETRIES` times at most); one that fails numerically or does not
+    reach the end of its sweep gives a row with ``status = "failed"``, why, and the points it
+    reached; bad input raises."""
     started = time.perf_counter()
     overrides = dict(sample.parameters)
     model = Model.from_job(job, overrides)
@@ -1109,7 +1110,7 @@ def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
     # at half the largest step, then a quarter (docs/method.md §19), not below the smallest.
     table = model._native.job_response(sample.branch)
     max_step, min_step = (table.get(k, _nnm.RESPONSE_DEFAULTS[k]) for k in ("max_step", "min_step"))
-    retried, first_stop = [], "closed on a loop" if response.stop_kind == "closed" else "turned back"
+    retried, first_stop = [], response.stop_kind
     while response.stop_kind in ("closed", "start") and len(retried) < CLOSED_CURVE_RETRIES and max_step / 2 >= min_step:
         retried.append(max_step)
         max_step /= 2
@@ -1123,7 +1124,8 @@ def run_response_sample(job: str, sample: Sample, seed: int) -> dict[str, Any]:
         if error:
             error += f" (also at max_step {tried})"
         else:
-            note = f"{first_stop} at max_step {tried}; complete at {max_step:g}"
+            why = "closed on a loop" if first_stop == "closed" else "turned back"
+            note = f"{why} at max_step {tried}; complete at {max_step:g}"
     peaks = np.asarray(response.peaks, dtype=float)
     peaks = peaks.reshape(len(response), -1) if len(response) else np.zeros((0, 1))
     row: dict[str, Any] = {

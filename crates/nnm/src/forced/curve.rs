@@ -144,28 +144,22 @@ pub enum ResponseError {
 /// before coming back to it counts as closing (nearer ones are its neighbours).
 const CLOSING_ARCLENGTH_IN_STEPS: f64 = 10.0;
 
-/// The index of an earlier point the last one of `points` has come back to ([`closes`]).
-fn returns_to(points: &[ResponsePoint]) -> Option<usize> {
-    let path: Vec<_> = (points.iter())
-        .map(|p| (&p.unknowns[..], &p.tangent[..], p.step))
-        .collect();
-    closes(&path)
-}
-
-/// The index of an earlier point of `path` (unknowns, unit tangent, the step that led there)
-/// its last point has come back to: within the last step of it, moving the same way (tangents
+/// The index of an earlier point of `path` its last point has come back to (`at` gives a
+/// point's unknowns, unit tangent and the step that led there): within the last step of it, moving the same way (tangents
 /// within 25°), after at least [`CLOSING_ARCLENGTH_IN_STEPS`] steps of arclength. A curve in
 /// `2n + 1` dimensions does not pass that close to itself unless it retraces a loop (a
 /// mistuned disk's curve once circled between 2.130 and 2.136 rad/s until its 2,000 points
 /// ran out; docs/method.md §19).
-pub(super) fn closes(path: &[(&[f64], &[f64], f64)]) -> Option<usize> {
-    let ((u, t, step), before) = path.split_last()?;
-    let mut arclength = *step;
-    for (j, (earlier_u, earlier_t, earlier_step)) in before.iter().enumerate().rev() {
+pub(super) fn closes<P>(path: &[P], at: impl Fn(&P) -> (&[f64], &[f64], f64)) -> Option<usize> {
+    let (last, before) = path.split_last()?;
+    let (u, t, step) = at(last);
+    let mut arclength = step;
+    for (j, earlier) in before.iter().enumerate().rev() {
+        let (earlier_u, earlier_t, earlier_step) = at(earlier);
         // The parameter first: one coordinate rules out most points without the distance.
         if arclength > CLOSING_ARCLENGTH_IN_STEPS * step
-            && (earlier_u.last()? - u.last()?).abs() < *step
-            && linalg::distance(earlier_u, u) < *step
+            && (earlier_u.last()? - u.last()?).abs() < step
+            && linalg::distance(earlier_u, u) < step
             && linalg::dot(earlier_t, t) > 0.9
         {
             return Some(j);
@@ -534,7 +528,7 @@ pub fn forced_response<S: MechanicalSystem + ?Sized>(
         if points.len() >= settings.max_points {
             break ResponseStop::MaxPoints;
         }
-        if let Some(earlier) = returns_to(&points) {
+        if let Some(earlier) = closes(&points, |p| (&p.unknowns, &p.tangent, p.step)) {
             break ResponseStop::Closed(earlier);
         }
         // Land on the end of the sweep rather than past it (docs/method.md eq. (26c)).

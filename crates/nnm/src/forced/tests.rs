@@ -172,10 +172,8 @@ fn bad_sweeps_and_damping_are_refused_before_anything_is_computed() {
 /// The first prefix of a path whose last point [`curve::closes`] finds back on the path, and
 /// the earlier point it names (`None` when no prefix closes).
 fn first_closing(points: &[(Vec<f64>, Vec<f64>)], step: f64) -> Option<(usize, usize)> {
-    let path: Vec<_> = (points.iter())
-        .map(|(u, t)| (&u[..], &t[..], step))
-        .collect();
-    (1..=path.len()).find_map(|k| curve::closes(&path[..k]).map(|j| (k - 1, j)))
+    (1..=points.len())
+        .find_map(|k| curve::closes(&points[..k], |(u, t)| (u, t, step)).map(|j| (k - 1, j)))
 }
 
 /// A circle walked in steps of 0.1 rad closes as soon as the second lap passes its start
