@@ -1,6 +1,6 @@
 """Checks a study's event lists against an independent fine scan of each backbone's multipliers.
 
-    python scripts/event-scan.py OUT [--samples 800] [--window 0.03]
+    python scripts/event-scan.py OUT [--samples 800] [--window 0.03] [--cache FILE]
 
 OUT is the folder of `nnm example bladed-disk --out OUT` (or `nnm study`). Each backbone of
 OUT/backbones is recomputed with the Python API, events off, with points placed exactly at
@@ -11,11 +11,14 @@ negative real) is compared sample to sample. Every change of the pattern is at l
 changes, the study's events (folds excepted), how many of those lie at a change (within
 `--window` relative in energy: the scan sees a change only once the pair is 1e-4 off the
 circle) and how many changes have an event there. docs/method.md §8 "What detection cannot
-see" quotes the figures (about 5 minutes on one core).
+see" quotes the figures (about 5 minutes on one core). With `--cache FILE` the scan's changes
+are kept in FILE (JSON) and read from it when it exists, so several study outputs of the same
+model (builds, settings) are compared with one scan.
 """
 
 import argparse
 import csv
+import json
 import pathlib
 import sys
 
@@ -65,7 +68,9 @@ def main():
     parser.add_argument("out", type=pathlib.Path)
     parser.add_argument("--samples", type=int, default=800)
     parser.add_argument("--window", type=float, default=0.03)
+    parser.add_argument("--cache", type=pathlib.Path, help="JSON file keeping the scan's changes")
     args = parser.parse_args()
+    cached = json.loads(args.cache.read_text()) if args.cache and args.cache.exists() else {}
     job = args.out / "bladed-disk.toml"
     if not job.exists():
         sys.exit(f"error: {job} not found (run nnm example bladed-disk --out {args.out})")
@@ -77,7 +82,13 @@ def main():
         name = path.stem
         n, d = map(int, name.split("-")[1:3])
         rows = list(csv.DictReader(open(path)))
-        changes = scan(model, (n, d), float(rows[0]["energy"]), float(rows[-1]["energy"]), args.samples)
+        if name not in cached:
+            cached[name] = scan(
+                model, (n, d), float(rows[0]["energy"]), float(rows[-1]["energy"]), args.samples
+            )
+            if args.cache:
+                args.cache.write_text(json.dumps(cached))
+        changes = cached[name]
         events = [
             float(r["energy"])
             for r in csv.DictReader(open(path.with_suffix(".events.csv")))

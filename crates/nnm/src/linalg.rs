@@ -438,6 +438,30 @@ pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<Complex>, LinalgError> {
     Ok(values.iter().map(|z| (z.re, z.im)).collect())
 }
 
+/// Eigenvalues of a general real matrix and their eigenvectors (column `k` of the returned
+/// `n × m` list of columns, each `n` complex entries).
+pub fn eigenpairs(a: MatRef<'_, f64>) -> Result<(Vec<Complex>, Vec<Vec<Complex>>), LinalgError> {
+    if !(0..a.ncols()).all(|j| (0..a.nrows()).all(|i| a[(i, j)].is_finite())) {
+        return Err(LinalgError::NonFinite);
+    }
+    let eigen = a.eigen().map_err(|_| LinalgError::NoConvergence)?;
+    let values = eigen
+        .S()
+        .column_vector()
+        .iter()
+        .map(|z| (z.re, z.im))
+        .collect();
+    let u = eigen.U();
+    let vectors = (0..u.ncols())
+        .map(|k| {
+            (0..u.nrows())
+                .map(|i| (u[(i, k)].re, u[(i, k)].im))
+                .collect()
+        })
+        .collect();
+    Ok((values, vectors))
+}
+
 /// Least-squares solution of `A x = b` (A with full column rank) by Householder QR.
 ///
 /// This is the Moore–Penrose solution of the overdetermined corrector systems (docs/method.md §5),

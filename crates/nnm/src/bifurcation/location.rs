@@ -2,7 +2,7 @@
 //! calls [`BifurcationDetector`] with each new segment, and the detector corrects trial points
 //! on it through [`Segment::point_at`].
 
-use super::{Crossing, Event, detect, multiplicity, test_function, unexplained};
+use super::{Crossing, Event, detect, hidden, multiplicity, test_function, unexplained};
 use crate::continuation::{Detail, EventDetector, Segment};
 use crate::model::MechanicalSystem;
 use crate::shooting::{BranchPoint, Shooting};
@@ -34,6 +34,10 @@ const REFINE_DEPTH: usize = 2;
 /// 63 s, depth 5 finds 352 in 71 s (29.5 s and 278 events without this refinement, some of
 /// them spurious or misplaced).
 const UNEXPLAINED_DEPTH: usize = 3;
+/// How many times a step is halved where pairs of opposite Krein signatures changed places
+/// in it ([`hidden`]): a collision and its undoing inside the step, found once a half holds
+/// the quadruplet at one of its ends.
+const HIDDEN_DEPTH: usize = 4;
 /// Trials allowed to the secant location (it converges in 5–12 on a simple root).
 const SECANT_TRIALS: usize = 20;
 /// Relative arclength bracket to which an event without a usable test function is placed by
@@ -84,7 +88,8 @@ fn locate_events<S: MechanicalSystem + ?Sized>(
         let crossings = detect(&a.1, &b.1);
         let unbracketed = crossings.iter().any(|&c| !brackets(c, &a.1, &b.1));
         let refine = (unbracketed && depth < REFINE_DEPTH)
-            || (unexplained(&a.1, &b.1, &crossings) && depth < UNEXPLAINED_DEPTH);
+            || (unexplained(&a.1, &b.1, &crossings) && depth < UNEXPLAINED_DEPTH)
+            || (depth < HIDDEN_DEPTH && hidden(&a.1, &b.1));
         if refine {
             let mid = 0.5 * (a.0 + b.0);
             if let Ok(m) = trial_point(mid, true) {

@@ -131,11 +131,16 @@ pub trait FloquetSolver: Send + Sync {
     /// Multipliers and stability of `monodromy`, its trivial pair spanned by `directions`
     /// (the flow direction and the direction along the family); `class`, when given, lists
     /// the coordinates of an invariant block holding both directions (a symmetry class).
+    ///
+    /// `frequencies`, when given, are the modal frequencies `ω_c` of the energy-scaled
+    /// coordinates `(ω_c q_c, q̇_c)` the monodromy is written in (eq. (33a)): they define its
+    /// symplectic form, and with it the Krein signature of each pair on the circle (eq. (37a)).
     fn analyse(
         &self,
         monodromy: &Mat<f64>,
         directions: [&[f64]; 2],
         class: Option<&[usize]>,
+        frequencies: Option<&[f64]>,
         tolerance: f64,
     ) -> Result<Floquet, LinalgError>;
 }
@@ -151,12 +156,15 @@ impl FloquetSolver for DenseFloquet {
         monodromy: &Mat<f64>,
         directions: [&[f64]; 2],
         class: Option<&[usize]>,
+        frequencies: Option<&[f64]>,
         tolerance: f64,
     ) -> Result<Floquet, LinalgError> {
-        match class {
-            Some(class) => analyse_deflated_split(monodromy, directions, class, tolerance),
-            None => analyse_deflated(monodromy, directions, tolerance),
-        }
+        let (mut floquet, signs) = match class {
+            Some(class) => split(monodromy, directions, class, frequencies, tolerance)?,
+            None => deflated(monodromy, directions, frequencies, 0, tolerance)?,
+        };
+        annotate(&mut floquet, &signs);
+        Ok(floquet)
     }
 }
 
@@ -186,6 +194,25 @@ pub struct MultiplierPair {
     pub partner: Complex,
     /// Where the pair sits: on the unit circle, or which way it left it (docs/method.md eq. (37)).
     pub kind: PairKind,
+    /// For a pair on the circle, the Krein signature of `multiplier` (docs/method.md eq.
+    /// (37a)), when the analysis knew the symplectic form.
+    #[serde(skip)]
+    pub krein: Option<Krein>,
+}
+
+/// The Krein signature of a multiplier on the unit circle: the sign of the symplectic form's
+/// Hermitian value `vᴴ G v / 2i` on its eigenvector (docs/method.md eq. (37a)). Two pairs on
+/// the circle can collide and leave it (a Krein collision) only if their signatures differ;
+/// a pair of one signature passes one of the same untouched. So two neighbouring pairs of
+/// opposite signatures that have changed places between two points met in between: they
+/// left the circle and came back, an event and its undoing inside one step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Krein {
+    /// The invariant block of the monodromy the pair belongs to (a symmetry class or its
+    /// complement): pairs of different blocks never interact.
+    pub block: u8,
+    /// `+1` or `−1`; `0` where it is too small to tell (a multiplier at `±1`).
+    pub sign: i8,
 }
 
 impl MultiplierPair {
@@ -223,6 +250,22 @@ pub fn analyse_deflated(
     directions: [&[f64]; 2],
     tolerance: f64,
 ) -> Result<Floquet, LinalgError> {
+    deflated(monodromy, directions, None, 0, tolerance).map(|(floquet, _)| floquet)
+}
+
+/// A multiplier with its Krein sign and block (see [`Krein`]), before pairing.
+type Signed = (Complex, Krein);
+
+/// [`analyse_deflated`], with the Krein signs of the non-trivial multipliers when the modal
+/// `frequencies` of the coordinates are given (as block `block`).
+fn deflated(
+    monodromy: &Mat<f64>,
+    directions: [&[f64]; 2],
+    frequencies: Option<&[f64]>,
+    block_id: u8,
+    tolerance: f64,
+) -> Result<(Floquet, Vec<Signed>), LinalgError> {
+    let plain = |m: &Mat<f64>| analyse(m, tolerance).map(|f| (f, Vec::new()));
     let n = monodromy.nrows();
     // Q = H₁ H₂ from two Householder reflections: H₁ maps the first direction onto e₁, H₂
     // (acting on coordinates 1..n) maps the rest of H₁ d₂ onto e₂, so Q's first two columns
@@ -230,17 +273,17 @@ pub fn analyse_deflated(
     // Gram–Schmidt to a full basis cost O(n³) and was a third of the tongue's Floquet time.
     let (d1, d2) = (directions[0], directions[1]);
     let Some(v1) = reflector(d1, 0) else {
-        return analyse(monodromy, tolerance);
+        return plain(monodromy);
     };
     let mut y = d2.to_vec();
     reflect_vector(&v1, &mut y);
     let rest = linalg::norm(&y[1..]);
     // Also true for NaN: a direction that is not usable falls back to the plain analysis.
     if rest.is_nan() || rest <= 1e-8 * linalg::norm(d2) {
-        return analyse(monodromy, tolerance);
+        return plain(monodromy);
     }
     let Some(v2) = reflector(&y, 1) else {
-        return analyse(monodromy, tolerance);
+        return plain(monodromy);
     };
     let mut projected = monodromy.clone();
     for v in [&v1, &v2] {
@@ -248,9 +291,96 @@ pub fn analyse_deflated(
     }
     let block =
         |lo: usize, size: usize| Mat::from_fn(size, size, |i, j| projected[(lo + i, lo + j)]);
-    let rest = linalg::eigenvalues(block(2, n - 2).as_ref())?;
     let trivial = linalg::eigenvalues(block(0, 2).as_ref())?;
-    Ok(assemble(rest, trivial, tolerance))
+    let Some(frequencies) = frequencies else {
+        let rest = linalg::eigenvalues(block(2, n - 2).as_ref())?;
+        return Ok((assemble(rest, trivial, tolerance), Vec::new()));
+    };
+    // An eigenvector `w` of the deflated block is the tail of one of `QᵀΦQ`: `u = [x; w]` with
+    // `(μ I − P) x = C w` (P, C the first two rows); Φ's own is `Q u = H₁ H₂ u`.
+    let (rest, vectors) = linalg::eigenpairs(block(2, n - 2).as_ref())?;
+    let signed = rest
+        .iter()
+        .zip(&vectors)
+        .map(|(&mu, w)| {
+            let cw = |i: usize| {
+                w.iter().enumerate().fold((0.0, 0.0), |acc, (j, &wj)| {
+                    add(acc, mul((projected[(i, 2 + j)], 0.0), wj))
+                })
+            };
+            let (r1, r2) = (cw(0), cw(1));
+            let a11 = sub(mu, (projected[(0, 0)], 0.0));
+            let a22 = sub(mu, (projected[(1, 1)], 0.0));
+            let (a12, a21) = ((-projected[(0, 1)], 0.0), (-projected[(1, 0)], 0.0));
+            let det = sub(mul(a11, a22), mul(a12, a21));
+            let x1 = divide(sub(mul(a22, r1), mul(a12, r2)), det);
+            let x2 = divide(sub(mul(a11, r2), mul(a21, r1)), det);
+            let mut re: Vec<f64> = [x1.0, x2.0]
+                .into_iter()
+                .chain(w.iter().map(|z| z.0))
+                .collect();
+            let mut im: Vec<f64> = [x1.1, x2.1]
+                .into_iter()
+                .chain(w.iter().map(|z| z.1))
+                .collect();
+            for v in [&v2, &v1] {
+                reflect_vector(v, &mut re);
+                reflect_vector(v, &mut im);
+            }
+            let sign = if modulus(det).is_finite() && modulus(det) > 0.0 {
+                krein_sign(&re, &im, frequencies)
+            } else {
+                0
+            };
+            (
+                mu,
+                Krein {
+                    block: block_id,
+                    sign,
+                },
+            )
+        })
+        .collect();
+    Ok((assemble(rest, trivial, tolerance), signed))
+}
+
+/// The sign of `Im Σ_c conj(y_c) y_(m+c) / ω_c` for `y = re + i im` in the coordinates
+/// `(ω_c q_c, q̇_c)` (`m` modes, displacements first): `vᴴ G v / 2i` with `G` the symplectic
+/// form there, `[[0, Ω⁻¹], [−Ω⁻¹, 0]]` (docs/method.md eq. (37a)). Zero when it is below
+/// 1e-6 of the vector's own scale (an eigenvector at `±1`, where the form vanishes).
+fn krein_sign(re: &[f64], im: &[f64], frequencies: &[f64]) -> i8 {
+    let m = frequencies.len();
+    if re.len() != 2 * m {
+        return 0;
+    }
+    let (mut form, mut scale) = (0.0, 0.0);
+    for (c, &omega) in frequencies.iter().enumerate() {
+        let (a, b) = ((re[c], im[c]), (re[m + c], im[m + c]));
+        form += (a.0 * b.1 - a.1 * b.0) / omega;
+        scale += (a.0 * a.0 + a.1 * a.1 + b.0 * b.0 + b.1 * b.1) / omega;
+    }
+    // (NaN from a non-finite vector gives 0 too.)
+    let telling = form.abs() > 1e-6 * scale;
+    match (telling, form > 0.0) {
+        (false, _) => 0,
+        (true, true) => 1,
+        (true, false) => -1,
+    }
+}
+
+/// Gives each pair on the circle the Krein sign of its multiplier (the same number, as the
+/// analysis computed it).
+fn annotate(floquet: &mut Floquet, signed: &[Signed]) {
+    for pair in floquet
+        .pairs
+        .iter_mut()
+        .filter(|p| p.kind == PairKind::Elliptic)
+    {
+        pair.krein = signed
+            .iter()
+            .find(|(z, _)| *z == pair.multiplier)
+            .map(|&(_, krein)| krein);
+    }
 }
 
 /// [`analyse_deflated`] on a monodromy that a symmetry splits into two invariant blocks:
@@ -265,6 +395,18 @@ pub fn analyse_deflated_split(
     class: &[usize],
     tolerance: f64,
 ) -> Result<Floquet, LinalgError> {
+    split(monodromy, directions, class, None, tolerance).map(|(floquet, _)| floquet)
+}
+
+/// [`analyse_deflated_split`], with Krein signs as in [`deflated`]: the class is block 0, the
+/// rest block 1.
+fn split(
+    monodromy: &Mat<f64>,
+    directions: [&[f64]; 2],
+    class: &[usize],
+    frequencies: Option<&[f64]>,
+    tolerance: f64,
+) -> Result<(Floquet, Vec<Signed>), LinalgError> {
     let n = monodromy.nrows();
     let mut in_class = vec![false; n];
     class.iter().for_each(|&k| in_class[k] = true);
@@ -288,13 +430,24 @@ pub fn analyse_deflated_split(
         || coupling > 1e-7 * largest
         || directions.iter().any(|d| outside(d))
     {
-        return analyse_deflated(monodromy, directions, tolerance);
+        return deflated(monodromy, directions, frequencies, 0, tolerance);
     }
     let sub =
         |idx: &[usize]| Mat::from_fn(idx.len(), idx.len(), |i, j| monodromy[(idx[i], idx[j])]);
     let restrict = |d: &[f64]| -> Vec<f64> { class.iter().map(|&k| d[k]).collect() };
+    // Both blocks hold their modes' displacements, then the same modes' velocities.
+    let block_frequencies = |idx: &[usize]| -> Option<Vec<f64>> {
+        frequencies.map(|f| idx[..idx.len() / 2].iter().map(|&k| f[k]).collect())
+    };
     let (d1, d2) = (restrict(directions[0]), restrict(directions[1]));
-    let in_block = analyse_deflated(&sub(class), [&d1, &d2], tolerance)?;
+    let class_frequencies = block_frequencies(class);
+    let (in_block, mut signed) = deflated(
+        &sub(class),
+        [&d1, &d2],
+        class_frequencies.as_deref(),
+        0,
+        tolerance,
+    )?;
     let mut multipliers: Vec<Complex> = in_block
         .multipliers
         .iter()
@@ -302,13 +455,25 @@ pub fn analyse_deflated_split(
         .filter(|(k, _)| !in_block.trivial.contains(k))
         .map(|(_, z)| *z)
         .collect();
-    multipliers.extend(linalg::eigenvalues(sub(&rest).as_ref())?);
+    match block_frequencies(&rest) {
+        Some(rest_frequencies) => {
+            let (values, vectors) = linalg::eigenpairs(sub(&rest).as_ref())?;
+            for (mu, v) in values.iter().zip(&vectors) {
+                let re: Vec<f64> = v.iter().map(|z| z.0).collect();
+                let im: Vec<f64> = v.iter().map(|z| z.1).collect();
+                let sign = krein_sign(&re, &im, &rest_frequencies);
+                signed.push((*mu, Krein { block: 1, sign }));
+            }
+            multipliers.extend(values);
+        }
+        None => multipliers.extend(linalg::eigenvalues(sub(&rest).as_ref())?),
+    }
     let trivial = in_block
         .trivial
         .iter()
         .map(|&k| in_block.multipliers[k])
         .collect();
-    Ok(assemble(multipliers, trivial, tolerance))
+    Ok((assemble(multipliers, trivial, tolerance), signed))
 }
 
 /// The unit Householder vector `v` (zero before `start`) with `(I - 2vvᵀ) x` a multiple of
@@ -487,6 +652,7 @@ fn classify(a: Complex, b: Complex, tolerance: f64) -> MultiplierPair {
             multiplier,
             partner,
             kind: PairKind::Elliptic,
+            krein: None,
         };
     }
     let angle = big.1.abs().atan2(big.0.abs());
@@ -501,6 +667,7 @@ fn classify(a: Complex, b: Complex, tolerance: f64) -> MultiplierPair {
         multiplier: big,
         partner: small,
         kind,
+        krein: None,
     }
 }
 
@@ -518,6 +685,10 @@ pub(crate) fn sub(a: Complex, b: Complex) -> Complex {
 
 pub(crate) fn mul(a: Complex, b: Complex) -> Complex {
     (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
+}
+
+fn divide(a: Complex, b: Complex) -> Complex {
+    mul(a, reciprocal(b))
 }
 
 fn reciprocal(z: Complex) -> Complex {

@@ -199,3 +199,71 @@ fn without_damped_drops_unpartnered_multipliers_inside_the_circle() {
         1
     );
 }
+
+/// A symplectic monodromy in the coordinates `(ω_c q_c, q̇_c)` (ω_c = 1): the trivial block on
+/// mode 0, mode 1 turned by +1.0 and mode 2 by −1.5 (its multiplier in the upper half plane is
+/// then the conjugate's: the opposite Krein signature), mixed by the symplectic shear
+/// `[[I, 0], [A, I]]` with `A` symmetric, which changes no signature.
+fn two_rotations(shear: f64) -> Mat<f64> {
+    let mut m = Mat::<f64>::zeros(6, 6);
+    m[(0, 0)] = 1.0;
+    m[(0, 3)] = 0.3;
+    m[(3, 3)] = 1.0;
+    for (mode, angle) in [(1, 1.0f64), (2, -1.5f64)] {
+        let (c, s) = (angle.cos(), angle.sin());
+        m[(mode, mode)] = c;
+        m[(mode, mode + 3)] = s;
+        m[(mode + 3, mode)] = -s;
+        m[(mode + 3, mode + 3)] = c;
+    }
+    let mut a = Mat::<f64>::identity(6, 6);
+    let mut inverse = Mat::<f64>::identity(6, 6);
+    for (i, j, v) in [(1, 1, 0.4), (1, 2, 0.3), (2, 1, 0.3), (2, 2, -0.2)] {
+        a[(i + 3, j)] = shear * v;
+        inverse[(i + 3, j)] = -shear * v;
+    }
+    &(&a * &m) * &inverse
+}
+
+#[test]
+fn pairs_on_the_circle_carry_their_krein_signatures() {
+    let (e0, e3) = (
+        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+    );
+    let sign_at = |f: &Floquet, angle: f64| {
+        let pair = f
+            .pairs
+            .iter()
+            .find(|p| (p.multiplier.1.atan2(p.multiplier.0) - angle).abs() < 1e-9)
+            .unwrap_or_else(|| panic!("no pair at angle {angle}: {:?}", f.pairs));
+        pair.krein.expect("a signature")
+    };
+    for shear in [0.0, 1.0] {
+        let m = two_rotations(shear);
+        let f = DenseFloquet
+            .analyse(&m, [&e0, &e3], None, Some(&[1.0, 1.0, 1.0]), 1e-6)
+            .unwrap();
+        assert_eq!(sign_at(&f, 1.0), Krein { block: 0, sign: 1 });
+        assert_eq!(sign_at(&f, 1.5), Krein { block: 0, sign: -1 });
+        // Without the form there is no signature.
+        let plain = DenseFloquet
+            .analyse(&m, [&e0, &e3], None, None, 1e-6)
+            .unwrap();
+        assert!(plain.pairs.iter().all(|p| p.krein.is_none()));
+    }
+    // Split into a class (modes 0, 1) and the rest (mode 2): each pair keeps its sign, in
+    // its own block; frequencies other than 1 rescale the form but not its sign here.
+    let class = [0, 1, 3, 4];
+    let f = DenseFloquet
+        .analyse(
+            &two_rotations(0.0),
+            [&e0, &e3],
+            Some(&class),
+            Some(&[1.0, 2.0, 3.0]),
+            1e-6,
+        )
+        .unwrap();
+    assert_eq!(sign_at(&f, 1.0), Krein { block: 0, sign: 1 });
+    assert_eq!(sign_at(&f, 1.5), Krein { block: 1, sign: -1 });
+}
