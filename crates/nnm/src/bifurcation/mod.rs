@@ -289,47 +289,93 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
     moved > accounted
 }
 
-/// Whether two pairs on the circle of opposite Krein signatures (in one invariant block of the
-/// monodromy) changed places between the two points, or a pair next to `±1` changed its
-/// signature. Pairs of opposite signatures cannot pass each other on the circle, so they met,
-/// left it and came back inside the step — an event and its undoing, which leave the counts
-/// of [`detect`] alike at both ends (docs/method.md §8, eq. (44a)). `false` where a point's
-/// pairs carry no signature.
+/// Whether two pairs on the circle of opposite Krein signatures that move modes in common
+/// changed places between the two points, or a pair next to `±1` changed its signature.
+/// Such pairs cannot pass each other on the circle, so they met, left it and came back inside
+/// the step — an event and its undoing, which leave the counts of [`detect`] alike at both
+/// ends (docs/method.md §8, eq. (44a)). Pairs in different blocks of the monodromy, or moving
+/// no mode in common (kept apart by a symmetry of the motion), pass each other freely and are
+/// compared apart. `false` where a point's pairs carry no signature.
 pub(crate) fn hidden(a: &BranchPoint, b: &BranchPoint) -> bool {
-    // The signs of a block's pairs on the circle in the order of their invariants (from +2
-    // down); pairs resting at ±1 and signs too small to tell are left out.
-    let word =
-        |f: &Floquet, block: u8| -> Option<Vec<i8>> {
-            let mut on_circle = Vec::new();
-            for p in f.pairs.iter().filter(|p| {
-                p.kind == PairKind::Elliptic && !is_resting(p, 2.0) && !is_resting(p, -2.0)
-            }) {
-                let krein = p.krein?;
-                if krein.block == block && krein.sign != 0 {
-                    on_circle.push((p.trace().0, krein.sign));
-                }
-            }
-            on_circle.sort_by(|x, y| y.0.total_cmp(&x.0));
-            // Twins (equal invariants to round-off) have no order: their signs go by sign.
-            let mut start = 0;
-            for end in 1..=on_circle.len() {
-                let apart = end == on_circle.len() || {
-                    let (s, t) = (on_circle[end - 1].0, on_circle[end].0);
-                    (s - t).abs() >= TWIN_INVARIANT * s.abs().max(1.0)
-                };
-                if apart {
-                    on_circle[start..end].sort_by_key(|p| p.1);
-                    start = end;
-                }
-            }
-            Some(on_circle.into_iter().map(|(_, sign)| sign).collect())
+    let changed = |x: &[(u128, Vec<i8>)], y: &[(u128, Vec<i8>)]| {
+        x.iter()
+            .zip(y)
+            .any(|(u, v)| u.1.len() == v.1.len() && u.1 != v.1)
+    };
+    (0..2).any(|block| {
+        let words = |grouped| {
+            sign_words(&a.floquet, block, grouped).zip(sign_words(&b.floquet, block, grouped))
         };
-    (0..2).any(
-        |block| match (word(&a.floquet, block), word(&b.floquet, block)) {
-            (Some(x), Some(y)) => x.len() == y.len() && x != y,
-            _ => false,
-        },
-    )
+        match words(true) {
+            Some((x, y)) if x.iter().map(|g| g.0).eq(y.iter().map(|g| g.0)) => changed(&x, &y),
+            // The groups changed (a mode coupled in or out): the block as one.
+            Some(_) => words(false).is_some_and(|(x, y)| changed(&x, &y)),
+            None => false,
+        }
+    })
+}
+
+/// One block's pairs on the circle, in groups of pairs that move modes in common (linked
+/// through each other; one group if not `grouped`): each group's modes, and the signs of its
+/// pairs in the order of their invariants, from `+2` down (twins, equal to round-off, by
+/// sign). Pairs resting at `±1` and signs too small to tell are left out. `None` when a pair
+/// carries no signature.
+fn sign_words(f: &Floquet, block: u8, grouped: bool) -> Option<Vec<(u128, Vec<i8>)>> {
+    let mut pairs = Vec::new();
+    for p in f
+        .pairs
+        .iter()
+        .filter(|p| p.kind == PairKind::Elliptic && !is_resting(p, 2.0) && !is_resting(p, -2.0))
+    {
+        let krein = p.krein?;
+        if krein.block == block && krein.sign != 0 {
+            let modes = if grouped { krein.modes } else { u128::MAX };
+            pairs.push((p.trace().0, krein.sign, modes));
+        }
+    }
+    pairs.sort_by(|x, y| y.0.total_cmp(&x.0));
+    // Twins (equal invariants to round-off) have no order: their signs go by sign.
+    let mut start = 0;
+    for end in 1..=pairs.len() {
+        let apart = end == pairs.len() || {
+            let (s, t) = (pairs[end - 1].0, pairs[end].0);
+            (s - t).abs() >= TWIN_INVARIANT * s.abs().max(1.0)
+        };
+        if apart {
+            pairs[start..end].sort_by_key(|p| p.1);
+            start = end;
+        }
+    }
+    // Groups: pairs linked by shared modes, directly or through others.
+    let mut group: Vec<usize> = (0..pairs.len()).collect();
+    let root = |group: &[usize], mut i: usize| {
+        while group[i] != i {
+            i = group[i];
+        }
+        i
+    };
+    for i in 0..pairs.len() {
+        for j in 0..i {
+            if pairs[i].2 & pairs[j].2 != 0 {
+                let (ri, rj) = (root(&group, i), root(&group, j));
+                group[ri] = rj;
+            }
+        }
+    }
+    let mut words: Vec<(usize, u128, Vec<i8>)> = Vec::new();
+    for (i, &(_, sign, modes)) in pairs.iter().enumerate() {
+        let r = root(&group, i);
+        match words.iter_mut().find(|w| w.0 == r) {
+            Some(w) => {
+                w.1 |= modes;
+                w.2.push(sign);
+            }
+            None => words.push((r, modes, vec![sign])),
+        }
+    }
+    let mut words: Vec<(u128, Vec<i8>)> = words.into_iter().map(|(_, m, w)| (m, w)).collect();
+    words.sort_by_key(|w| w.0);
+    Some(words)
 }
 
 /// The test function of a crossing at a point (see the module documentation), and the
@@ -644,14 +690,19 @@ mod tests {
     }
 
     /// The same point with Krein signs on its pairs on the circle (one block): `sign(angle)`
-    /// for the pair at that angle.
-    fn signed(mut p: BranchPoint, sign: impl Fn(f64) -> i8) -> BranchPoint {
+    /// for the pair at that angle, moving the modes `modes(angle)`.
+    fn signed(
+        mut p: BranchPoint,
+        sign: impl Fn(f64) -> i8,
+        modes: impl Fn(f64) -> u128,
+    ) -> BranchPoint {
         for pair in p.floquet.pairs.iter_mut() {
             if pair.kind == PairKind::Elliptic {
                 let angle = pair.multiplier.1.atan2(pair.multiplier.0);
                 pair.krein = Some(floquet::Krein {
                     block: 0,
                     sign: sign(angle),
+                    modes: modes(angle),
                 });
             }
         }
@@ -659,29 +710,47 @@ mod tests {
     }
 
     /// Two pairs on the circle whose order along it is reversed between two points: a
-    /// collision and its undoing inside the step if their signatures differ, nothing if they
-    /// are alike; nothing either without signatures or when a pair left the circle.
+    /// collision and its undoing inside the step if their signatures differ and they move
+    /// modes in common; nothing if they are alike, move different modes (a symmetry keeps
+    /// them apart), have no signatures, or a pair left the circle.
     #[test]
     fn pairs_of_opposite_signatures_that_changed_places_met_in_between() {
         // The pair at 0.9 moves to 1.12, the one at 1.1 to 0.88.
         let a = point(1.0, &[(1.0, Some(0.9)), (1.0, Some(1.1))]);
         let b = point(1.0, &[(1.0, Some(1.12)), (1.0, Some(0.88))]);
-        let first_positive = |p: &BranchPoint, first: f64| {
+        let is = |first: f64| move |angle: f64| (angle - first).abs() < 1e-9;
+        let positive_first = |p: &BranchPoint, first: f64, shared: bool| {
+            let is_first = is(first);
             signed(
                 p.clone(),
-                move |angle| if (angle - first).abs() < 1e-9 { 1 } else { -1 },
+                move |angle| if is_first(angle) { 1 } else { -1 },
+                move |angle| {
+                    if shared || is_first(angle) {
+                        0b11
+                    } else {
+                        0b100
+                    }
+                },
             )
         };
-        assert!(hidden(&first_positive(&a, 0.9), &first_positive(&b, 1.12)));
-        // Alike, they pass each other; or they kept their places.
-        assert!(!hidden(
-            &signed(a.clone(), |_| 1),
-            &signed(b.clone(), |_| 1)
+        assert!(hidden(
+            &positive_first(&a, 0.9, true),
+            &positive_first(&b, 1.12, true)
         ));
-        assert!(!hidden(&first_positive(&a, 0.9), &first_positive(&b, 0.88)));
+        assert!(!hidden(
+            &positive_first(&a, 0.9, false),
+            &positive_first(&b, 1.12, false)
+        ));
+        // Alike, they pass each other; or they kept their places.
+        let alike = |p: &BranchPoint| signed(p.clone(), |_| 1, |_| 1);
+        assert!(!hidden(&alike(&a), &alike(&b)));
+        assert!(!hidden(
+            &positive_first(&a, 0.9, true),
+            &positive_first(&b, 0.88, true)
+        ));
         assert!(!hidden(&a, &b));
         let quadruplet_at_b = point(1.0, &quadruplet(1.05, 1.0));
-        assert!(!hidden(&first_positive(&a, 0.9), &quadruplet_at_b));
+        assert!(!hidden(&positive_first(&a, 0.9, true), &quadruplet_at_b));
     }
 
     /// Two pairs on the circle passing each other (equal invariants at one end: one twin

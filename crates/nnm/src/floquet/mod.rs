@@ -213,7 +213,18 @@ pub struct Krein {
     pub block: u8,
     /// `+1` or `−1`; `0` where it is too small to tell (a multiplier at `±1`).
     pub sign: i8,
+    /// The modes its eigenvector moves (bit `c mod 128` for mode `c` of the block, where
+    /// its share of the vector is above [`MODE_SHARE`]). Pairs moving no mode in common
+    /// lie in invariant subspaces of their own — a symmetry of the motion keeps them apart —
+    /// and pass each other on the circle without meeting, whatever their signatures.
+    pub modes: u128,
 }
+
+/// The share of an eigenvector's squared length (in the energy-scaled coordinates) above which
+/// a mode counts as moved by it ([`Krein::modes`]): far above the round-off and the
+/// symmetry breaking of a converged orbit (~1e-16 in this measure), far below the content a
+/// mode has in a pair that it couples to.
+pub const MODE_SHARE: f64 = 1e-12;
 
 impl MultiplierPair {
     /// `σ = μ + ν`, the pair's invariant: the characteristic polynomial of a symplectic
@@ -327,18 +338,11 @@ fn deflated(
                 reflect_vector(v, &mut re);
                 reflect_vector(v, &mut im);
             }
-            let sign = if modulus(det).is_finite() && modulus(det) > 0.0 {
-                krein_sign(&re, &im, frequencies)
-            } else {
-                0
-            };
-            (
-                mu,
-                Krein {
-                    block: block_id,
-                    sign,
-                },
-            )
+            let mut krein = krein(&re, &im, frequencies, block_id);
+            if !(modulus(det).is_finite() && modulus(det) > 0.0) {
+                krein.sign = 0;
+            }
+            (mu, krein)
         })
         .collect();
     Ok((assemble(rest, trivial, tolerance), signed))
@@ -347,25 +351,37 @@ fn deflated(
 /// The sign of `Im Σ_c conj(y_c) y_(m+c) / ω_c` for `y = re + i im` in the coordinates
 /// `(ω_c q_c, q̇_c)` (`m` modes, displacements first): `vᴴ G v / 2i` with `G` the symplectic
 /// form there, `[[0, Ω⁻¹], [−Ω⁻¹, 0]]` (docs/method.md eq. (37a)). Zero when it is below
-/// 1e-6 of the vector's own scale (an eigenvector at `±1`, where the form vanishes).
-fn krein_sign(re: &[f64], im: &[f64], frequencies: &[f64]) -> i8 {
+/// 1e-6 of the vector's own scale (an eigenvector at `±1`, where the form vanishes). With it,
+/// the modes the vector moves ([`Krein::modes`]).
+fn krein(re: &[f64], im: &[f64], frequencies: &[f64], block: u8) -> Krein {
     let m = frequencies.len();
     if re.len() != 2 * m {
-        return 0;
+        return Krein {
+            block,
+            sign: 0,
+            modes: u128::MAX,
+        };
     }
-    let (mut form, mut scale) = (0.0, 0.0);
+    let share =
+        |c: usize| re[c] * re[c] + im[c] * im[c] + re[m + c] * re[m + c] + im[m + c] * im[m + c];
+    let length: f64 = (0..m).map(share).sum();
+    let (mut form, mut scale, mut modes) = (0.0, 0.0, 0u128);
     for (c, &omega) in frequencies.iter().enumerate() {
         let (a, b) = ((re[c], im[c]), (re[m + c], im[m + c]));
         form += (a.0 * b.1 - a.1 * b.0) / omega;
-        scale += (a.0 * a.0 + a.1 * a.1 + b.0 * b.0 + b.1 * b.1) / omega;
+        scale += share(c) / omega;
+        if share(c) > MODE_SHARE * length {
+            modes |= 1 << (c % 128);
+        }
     }
     // (NaN from a non-finite vector gives 0 too.)
     let telling = form.abs() > 1e-6 * scale;
-    match (telling, form > 0.0) {
+    let sign = match (telling, form > 0.0) {
         (false, _) => 0,
         (true, true) => 1,
         (true, false) => -1,
-    }
+    };
+    Krein { block, sign, modes }
 }
 
 /// Gives each pair on the circle the Krein sign of its multiplier (the same number, as the
@@ -461,8 +477,7 @@ fn split(
             for (mu, v) in values.iter().zip(&vectors) {
                 let re: Vec<f64> = v.iter().map(|z| z.0).collect();
                 let im: Vec<f64> = v.iter().map(|z| z.1).collect();
-                let sign = krein_sign(&re, &im, &rest_frequencies);
-                signed.push((*mu, Krein { block: 1, sign }));
+                signed.push((*mu, krein(&re, &im, &rest_frequencies, 1)));
             }
             multipliers.extend(values);
         }
