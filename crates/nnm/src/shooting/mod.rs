@@ -201,6 +201,10 @@ pub struct Shooting<'a, S: MechanicalSystem + ?Sized> {
     /// The convergence tolerance (the full-period check of half-period points uses it).
     tolerance: f64,
     stability_tolerance: f64,
+    /// Whether the Floquet analysis gives the pairs on the circle their Krein signatures
+    /// (docs/method.md eq. (37a)): the events' detection needs them, a stability verdict not,
+    /// and the eigenvectors cost ~15% of a small model's point.
+    krein_signatures: bool,
     /// Work counters so far.
     pub stats: ShootingStats,
     /// Called after every evaluation (a Newton iteration, or a trial point of an event's
@@ -427,6 +431,7 @@ impl<'a, S: MechanicalSystem + ?Sized> Shooting<'a, S> {
             modal_frequencies,
             tolerance,
             stability_tolerance: settings.stability.stability_tolerance,
+            krein_signatures: settings.stability.events,
             stats: ShootingStats::default(),
             progress: None,
             matrix_free,

@@ -189,7 +189,8 @@ impl<S: MechanicalSystem + ?Sized> Shooting<'_, S> {
             &monodromy,
             [flow_direction.as_slice(), family_direction.as_slice()],
             class.as_deref(),
-            (!self.is_matrix_free()).then_some(self.modal_frequencies.as_slice()),
+            (self.krein_signatures && !self.is_matrix_free())
+                .then_some(self.modal_frequencies.as_slice()),
             self.stability_tolerance,
         )?;
         Ok(if self.is_matrix_free() {
