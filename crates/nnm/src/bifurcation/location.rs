@@ -126,26 +126,30 @@ fn locate_events<S: MechanicalSystem + ?Sized>(
             Some(found) => Some(found),
             None => {
                 // No verified root on the whole step: bisect on which side's pattern of
-                // multipliers a trial shares, then try the test function again on that
-                // narrow bracket, widened by the window.
-                let placed = bisect(width, EVENT_BRACKET_TOLERANCE * q, BISECTION_TRIALS, |x| {
-                    let p = trial(sa + x, true)?;
-                    let past = detect(&a, &p).iter().any(|c| c.kind() == crossing.kind());
-                    Ok((past, p))
-                });
-                match placed {
+                // multipliers a trial shares, to the width of the verification window, then
+                // try the test function on that bracket widened by the window; only a change
+                // that is then placed without a root is bisected on, to its own tolerance.
+                let past =
+                    |p: &BranchPoint| detect(&a, p).iter().any(|c| c.kind() == crossing.kind());
+                let coarse = bisect(
+                    width,
+                    window.max(EVENT_BRACKET_TOLERANCE * q),
+                    BISECTION_TRIALS,
+                    |x| trial(sa + x, true).map(|p| (past(&p), p)),
+                );
+                match coarse {
                     Err(_) => None,
-                    Ok(placed) => {
-                        trials += placed.trials;
-                        let lo = (placed.arclength - placed.uncertainty - window).max(0.0);
-                        let hi = (placed.arclength + window).min(width);
+                    Ok(coarse) => {
+                        trials += coarse.trials;
+                        let lo = (coarse.arclength - coarse.uncertainty - window).max(0.0);
+                        let hi = (coarse.arclength + window).min(width);
                         let ends = check.probe(trial, lo, &mut trials).and_then(|f_lo| {
                             check.probe(trial, hi, &mut trials).map(|f_hi| (f_lo, f_hi))
                         });
-                        match ends {
-                            Ok((Some(f_lo), Some(f_hi))) if f_lo * f_hi < 0.0 => check
-                                .locate(trial, (lo, f_lo), (hi, f_hi), &mut trials)
-                                .or(Some(placed)),
+                        let located = match ends {
+                            Ok((Some(f_lo), Some(f_hi))) if f_lo * f_hi < 0.0 => {
+                                check.locate(trial, (lo, f_lo), (hi, f_hi), &mut trials)
+                            }
                             // The pattern changes there, but the test function keeps its
                             // sign across: not this kind of event (two real pairs merging
                             // off the circle while a fold's pair returns to it, say).
@@ -153,8 +157,27 @@ fn locate_events<S: MechanicalSystem + ?Sized>(
                                 location_steps += trials;
                                 continue;
                             }
-                            _ => Some(placed),
-                        }
+                            _ => None,
+                        };
+                        located.or_else(|| {
+                            // Placed by the pattern alone: on to the bracket tolerance inside
+                            // the coarse bracket (whose upper end is the change's side).
+                            let start = coarse.arclength - coarse.uncertainty;
+                            let fine = bisect(
+                                coarse.uncertainty,
+                                EVENT_BRACKET_TOLERANCE * q,
+                                BISECTION_TRIALS,
+                                |x| trial(sa + start + x, true).map(|p| (past(&p), p)),
+                            );
+                            Some(match fine {
+                                Ok(fine) => {
+                                    trials += fine.trials;
+                                    let at = start + fine.arclength;
+                                    fine.with_arclength(at)
+                                }
+                                Err(_) => coarse,
+                            })
+                        })
                     }
                 }
             }
