@@ -264,6 +264,14 @@ pub(crate) fn illinois<T>(
         }
         (b, fb) = (s, fs);
         let width = (b - a).abs();
+        // Where the next trial would go: a move below the tolerance ends the location here,
+        // one trial early (that trial would only confirm it).
+        let next = b - fb * (b - a) / (fb - fa);
+        let moved = if next > a.min(b) && next < a.max(b) {
+            moved.min((next - b).abs())
+        } else {
+            moved
+        };
         if fs == 0.0 || width < tolerance || moved < tolerance || trial == max_trials {
             return Ok(Located {
                 arclength: s,
