@@ -429,11 +429,17 @@ pub fn symmetric_eigen(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), Linal
     Ok((values, evd.U().to_owned()))
 }
 
+/// `NonFinite` if an entry of `a` is not finite (the eigensolvers would not converge).
+fn finite(a: MatRef<'_, f64>) -> Result<(), LinalgError> {
+    match (0..a.ncols()).all(|j| (0..a.nrows()).all(|i| a[(i, j)].is_finite())) {
+        true => Ok(()),
+        false => Err(LinalgError::NonFinite),
+    }
+}
+
 /// Eigenvalues of a general real matrix.
 pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<Complex>, LinalgError> {
-    if !(0..a.ncols()).all(|j| (0..a.nrows()).all(|i| a[(i, j)].is_finite())) {
-        return Err(LinalgError::NonFinite);
-    }
+    finite(a)?;
     let values = a.eigenvalues().map_err(|_| LinalgError::NoConvergence)?;
     Ok(values.iter().map(|z| (z.re, z.im)).collect())
 }
@@ -441,9 +447,7 @@ pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<Complex>, LinalgError> {
 /// Eigenvalues of a general real matrix and their eigenvectors (column `k` of the returned
 /// `n × m` list of columns, each `n` complex entries).
 pub fn eigenpairs(a: MatRef<'_, f64>) -> Result<(Vec<Complex>, Vec<Vec<Complex>>), LinalgError> {
-    if !(0..a.ncols()).all(|j| (0..a.nrows()).all(|i| a[(i, j)].is_finite())) {
-        return Err(LinalgError::NonFinite);
-    }
+    finite(a)?;
     let eigen = a.eigen().map_err(|_| LinalgError::NoConvergence)?;
     let values = eigen
         .S()

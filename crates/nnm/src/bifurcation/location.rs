@@ -8,7 +8,9 @@ use crate::model::MechanicalSystem;
 use crate::shooting::{BranchPoint, Shooting};
 
 /// Detects folds, branch points, period doublings and Krein collisions between consecutive
-/// points of a branch of periodic motions and locates each one.
+/// points of a branch of periodic motions and locates each one. Collisions undone inside a
+/// step (docs/method.md eq. (44a)) are seen only on a [`Shooting`] built with events on in its
+/// stability settings: only then does its Floquet analysis give the Krein signatures.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct BifurcationDetector;
 
@@ -160,6 +162,9 @@ fn locate_events<S: MechanicalSystem + ?Sized>(
                             _ => None,
                         };
                         located.or_else(|| {
+                            if coarse.uncertainty <= EVENT_BRACKET_TOLERANCE * q {
+                                return Some(coarse);
+                            }
                             // Placed by the pattern alone: on to the bracket tolerance inside
                             // the coarse bracket (whose upper end is the change's side).
                             let start = coarse.arclength - coarse.uncertainty;

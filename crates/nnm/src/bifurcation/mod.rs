@@ -302,30 +302,25 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
 /// no mode in common (kept apart by a symmetry of the motion), pass each other freely and are
 /// compared apart. `false` where a point's pairs carry no signature.
 pub(crate) fn hidden(a: &BranchPoint, b: &BranchPoint) -> bool {
-    let changed = |x: &[(u128, Vec<i8>)], y: &[(u128, Vec<i8>)]| {
-        x.iter()
-            .zip(y)
-            .any(|(u, v)| u.1.len() == v.1.len() && u.1 != v.1)
-    };
     (0..2).any(|block| {
-        let words = |grouped| {
-            sign_words(&a.floquet, block, grouped).zip(sign_words(&b.floquet, block, grouped))
+        // The groups are those of both ends together, so that a mode whose share crosses
+        // MODE_SHARE between them cannot split a group at one end only.
+        let (Some(x), Some(y)) = (on_circle(&a.floquet, block), on_circle(&b.floquet, block))
+        else {
+            return false;
         };
-        match words(true) {
-            Some((x, y)) if x.iter().map(|g| g.0).eq(y.iter().map(|g| g.0)) => changed(&x, &y),
-            // The groups changed (a mode coupled in or out): the block as one.
-            Some(_) => words(false).is_some_and(|(x, y)| changed(&x, &y)),
-            None => false,
-        }
+        let groups = linked_modes(x.iter().chain(&y).map(|p| p.2));
+        groups.iter().any(|&group| {
+            let (u, v) = (sign_word(&x, group), sign_word(&y, group));
+            u.len() == v.len() && u != v
+        })
     })
 }
 
-/// One block's pairs on the circle, in groups of pairs that move modes in common (linked
-/// through each other; one group if not `grouped`): each group's modes, and the signs of its
-/// pairs in the order of their invariants, from `+2` down (twins, equal to round-off, by
-/// sign). Pairs resting at `±1` and signs too small to tell are left out. `None` when a pair
-/// carries no signature.
-fn sign_words(f: &Floquet, block: u8, grouped: bool) -> Option<Vec<(u128, Vec<i8>)>> {
+/// One block's pairs on the circle as `(σ, sign, modes)`, from `σ = +2` down, twins (equal
+/// invariants to round-off) by sign; pairs resting at `±1` and signs too small to tell are
+/// left out. `None` when a pair carries no signature.
+fn on_circle(f: &Floquet, block: u8) -> Option<Vec<(f64, i8, u128)>> {
     let mut pairs = Vec::new();
     for p in f
         .pairs
@@ -334,53 +329,50 @@ fn sign_words(f: &Floquet, block: u8, grouped: bool) -> Option<Vec<(u128, Vec<i8
     {
         let krein = p.krein?;
         if krein.block == block && krein.sign != 0 {
-            let modes = if grouped { krein.modes } else { u128::MAX };
-            pairs.push((p.trace().0, krein.sign, modes));
+            pairs.push((p.trace().0, krein.sign, krein.modes));
         }
     }
     pairs.sort_by(|x, y| y.0.total_cmp(&x.0));
-    // Twins (equal invariants to round-off) have no order: their signs go by sign.
     let mut start = 0;
     for end in 1..=pairs.len() {
-        let apart = end == pairs.len() || {
-            let (s, t) = (pairs[end - 1].0, pairs[end].0);
-            (s - t).abs() >= TWIN_INVARIANT * s.abs().max(1.0)
-        };
-        if apart {
+        if end == pairs.len() || !twins(pairs[end - 1].0, pairs[end].0) {
             pairs[start..end].sort_by_key(|p| p.1);
             start = end;
         }
     }
-    // Groups: pairs linked by shared modes, directly or through others.
-    let mut group: Vec<usize> = (0..pairs.len()).collect();
-    let root = |group: &[usize], mut i: usize| {
-        while group[i] != i {
-            i = group[i];
-        }
-        i
-    };
-    for i in 0..pairs.len() {
-        for j in 0..i {
-            if pairs[i].2 & pairs[j].2 != 0 {
-                let (ri, rj) = (root(&group, i), root(&group, j));
-                group[ri] = rj;
+    Some(pairs)
+}
+
+/// The modes linked through shared members of `masks` (directly or through others): one mask
+/// for each set of linked modes.
+fn linked_modes(masks: impl Iterator<Item = u128>) -> Vec<u128> {
+    let mut groups: Vec<u128> = Vec::new();
+    for mask in masks {
+        let mut merged = mask;
+        groups.retain(|&g| {
+            let linked = g & merged != 0;
+            if linked {
+                merged |= g;
             }
-        }
+            !linked
+        });
+        groups.push(merged);
     }
-    let mut words: Vec<(usize, u128, Vec<i8>)> = Vec::new();
-    for (i, &(_, sign, modes)) in pairs.iter().enumerate() {
-        let r = root(&group, i);
-        match words.iter_mut().find(|w| w.0 == r) {
-            Some(w) => {
-                w.1 |= modes;
-                w.2.push(sign);
-            }
-            None => words.push((r, modes, vec![sign])),
-        }
-    }
-    let mut words: Vec<(u128, Vec<i8>)> = words.into_iter().map(|(_, m, w)| (m, w)).collect();
-    words.sort_by_key(|w| w.0);
-    Some(words)
+    groups
+}
+
+/// The signs, in order, of the pairs whose modes lie in `group`.
+fn sign_word(pairs: &[(f64, i8, u128)], group: u128) -> Vec<i8> {
+    pairs
+        .iter()
+        .filter(|p| p.2 & group != 0)
+        .map(|p| p.1)
+        .collect()
+}
+
+/// Whether two invariants are equal to round-off: pairs degenerate by a symmetry ("twins").
+fn twins(s: f64, t: f64) -> bool {
+    (s - t).abs() < TWIN_INVARIANT * s.abs().max(1.0)
 }
 
 /// The test function of a crossing at a point (see the module documentation), and the

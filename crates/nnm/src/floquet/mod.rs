@@ -214,7 +214,8 @@ pub struct Krein {
     /// `+1` or `−1`; `0` where it is too small to tell (a multiplier at `±1`).
     pub sign: i8,
     /// The modes its eigenvector moves (bit `c mod 128` for mode `c` of the block, where
-    /// its share of the vector is above [`MODE_SHARE`]). Pairs moving no mode in common
+    /// its share of the vector is above [`MODE_SHARE`]; beyond 128 modes, modes share bits,
+    /// which can only link pairs that are apart — never separate linked ones). Pairs moving no mode in common
     /// lie in invariant subspaces of their own — a symmetry of the motion keeps them apart —
     /// and pass each other on the circle without meeting, whatever their signatures.
     pub modes: u128,
@@ -387,15 +388,19 @@ fn krein(re: &[f64], im: &[f64], frequencies: &[f64], block: u8) -> Krein {
 /// Gives each pair on the circle the Krein sign of its multiplier (the same number, as the
 /// analysis computed it).
 fn annotate(floquet: &mut Floquet, signed: &[Signed]) {
+    // Each computed multiplier serves one pair: equal values (identical decoupled blocks)
+    // keep their own signatures.
+    let mut used = vec![false; signed.len()];
     for pair in floquet
         .pairs
         .iter_mut()
         .filter(|p| p.kind == PairKind::Elliptic)
     {
-        pair.krein = signed
-            .iter()
-            .find(|(z, _)| *z == pair.multiplier)
-            .map(|&(_, krein)| krein);
+        let found = (0..signed.len()).find(|&k| !used[k] && signed[k].0 == pair.multiplier);
+        pair.krein = found.map(|k| {
+            used[k] = true;
+            signed[k].1
+        });
     }
 }
 
@@ -452,6 +457,7 @@ fn split(
         |idx: &[usize]| Mat::from_fn(idx.len(), idx.len(), |i, j| monodromy[(idx[i], idx[j])]);
     let restrict = |d: &[f64]| -> Vec<f64> { class.iter().map(|&k| d[k]).collect() };
     // Both blocks hold their modes' displacements, then the same modes' velocities.
+    let frequencies = frequencies.filter(|f| 2 * f.len() == n);
     let block_frequencies = |idx: &[usize]| -> Option<Vec<f64>> {
         frequencies.map(|f| idx[..idx.len() / 2].iter().map(|&k| f[k]).collect())
     };
