@@ -231,19 +231,16 @@ pub fn response<'py>(
                 ResponseStop::Closed(_) => "closed",
             };
             out.set_item("stop_kind", kind)?;
-            let (stop, error) = match &curve.stop {
-                ResponseStop::Failed(m) => (format!("failed: {m}"), Some(m.clone())),
-                ResponseStop::Closed(_) => (nnm_io::output::stop_name(&curve.stop), None),
-                ResponseStop::End => ("reached the end of the sweep".into(), None),
-                ResponseStop::Start => ("turned back out of the start of the sweep".into(), None),
-                ResponseStop::MaxPoints => (
-                    format!("max_points ({}) reached", settings.max_points),
-                    None,
-                ),
-                ResponseStop::Stopped if observer.stopped => {
-                    ("stopped by the callback".into(), None)
-                }
-                ResponseStop::Stopped => ("interrupted".into(), None),
+            // The words are the files' (`stop_name`), but for the two a Python caller is
+            // told more about: the point limit's value and a stop asked by its callback.
+            let stop = match &curve.stop {
+                ResponseStop::MaxPoints => format!("max_points ({}) reached", settings.max_points),
+                ResponseStop::Stopped if observer.stopped => "stopped by the callback".into(),
+                other => nnm_io::output::stop_name(other),
+            };
+            let error = match &curve.stop {
+                ResponseStop::Failed(m) => Some(m.clone()),
+                _ => None,
             };
             out.set_item("stop", stop)?;
             out.set_item("error", error)?;

@@ -259,9 +259,7 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
         let mut seen: Vec<Complex> = Vec::new();
         for p in f.pairs.iter().filter(|p| p.kind == kind) {
             let s = p.trace();
-            let twin = seen.iter().any(|t| {
-                (t.0 - s.0).hypot(t.1.abs() - s.1.abs()) < TWIN_INVARIANT * s.0.abs().max(1.0)
-            });
+            let twin = seen.iter().any(|&t| twins(s, t));
             if !twin {
                 seen.push(s);
             }
@@ -335,7 +333,7 @@ fn on_circle(f: &Floquet, block: u8) -> Option<Vec<(f64, i8, u128)>> {
     pairs.sort_by(|x, y| y.0.total_cmp(&x.0));
     let mut start = 0;
     for end in 1..=pairs.len() {
-        if end == pairs.len() || !twins(pairs[end - 1].0, pairs[end].0) {
+        if end == pairs.len() || !twins((pairs[end - 1].0, 0.0), (pairs[end].0, 0.0)) {
             pairs[start..end].sort_by_key(|p| p.1);
             start = end;
         }
@@ -370,9 +368,10 @@ fn sign_word(pairs: &[(f64, i8, u128)], group: u128) -> Vec<i8> {
         .collect()
 }
 
-/// Whether two invariants are equal to round-off: pairs degenerate by a symmetry ("twins").
-fn twins(s: f64, t: f64) -> bool {
-    (s - t).abs() < TWIN_INVARIANT * s.abs().max(1.0)
+/// Whether two invariants are equal to round-off (relative to the first, up to conjugation):
+/// pairs degenerate by a symmetry ("twins").
+fn twins(s: Complex, t: Complex) -> bool {
+    (t.0 - s.0).hypot(t.1.abs() - s.1.abs()) < TWIN_INVARIANT * s.0.abs().max(1.0)
 }
 
 /// The test function of a crossing at a point (see the module documentation), and the
