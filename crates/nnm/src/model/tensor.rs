@@ -110,18 +110,25 @@ struct Terms<const N: usize> {
     compact: CompactTerms<N>,
 }
 
-/// Terms grouped by row in the fewest bytes: a row's index once, 32-bit factor indices, the
-/// coefficients apart — 20 bytes a cubic term instead of 40. Why: a force evaluation streams
-/// every term, at 10⁴ dofs 330k of them, beyond the per-core cache. Measured on the imported
-/// von Kármán beam's first backbone (default settings): 1,000 elements, six points, 30.7 →
-/// 29.6 s; 3,333 elements to +8%, 580 → 536 s (with the rows' own-cancellation test of
-/// `linalg::cancelling_sum`, and the first run not on an idle machine throughout).
+/// Terms grouped by row in the fewest bytes, each naming its monomial among the distinct
+/// ones: a row's index once, a 32-bit monomial index and the coefficient a term, the
+/// monomials' 32-bit factors once. Why: a force evaluation streams every term, at 10⁴ dofs
+/// 330k of them, beyond the per-core cache; and a mesh's terms share their monomials (the
+/// rows of an element's dofs all hold its products) — the exported 10⁴-dof von Kármán beam
+/// has 193k cubic terms on 53k monomials and 137k quadratic ones on 43k — so that each
+/// monomial is formed once an evaluation, to twice the precision where the row sums need
+/// it (eq. (57a)), rather than once a term: the imported 1,000-element beam's first six
+/// points 31.6 → 31.0 s (three runs each, alternated), where the row sums' accurate pass,
+/// not the products, is the cost.
 #[derive(Debug, Clone, PartialEq)]
 struct CompactTerms<const N: usize> {
     /// `(i, end)`: row `i`'s terms end at `end` (and start at the previous row's end).
     rows: Vec<(u32, u32)>,
-    factors: Vec<[u32; N]>,
+    /// Each term's monomial: an index into `monomials`.
+    monomial: Vec<u32>,
     coefficients: Vec<f64>,
+    /// The distinct monomials' factors (sorted), in the order the rows first name them.
+    monomials: Vec<[u32; N]>,
 }
 
 impl<const N: usize> CompactTerms<N> {
@@ -130,32 +137,83 @@ impl<const N: usize> CompactTerms<N> {
     fn new(terms: &[Term<N>]) -> Self {
         let index = |i: usize| u32::try_from(i).expect("a dof index below 2^32");
         let mut rows: Vec<(u32, u32)> = Vec::new();
-        for (k, &(i, _, _)) in terms.iter().enumerate() {
+        let mut numbering: std::collections::HashMap<[u32; N], u32> =
+            std::collections::HashMap::new();
+        let mut monomials = Vec::new();
+        let mut monomial = Vec::with_capacity(terms.len());
+        for (k, &(i, t, _)) in terms.iter().enumerate() {
             let end = index(k + 1);
             match rows.last_mut() {
                 Some(last) if last.0 == index(i) => last.1 = end,
                 _ => rows.push((index(i), end)),
             }
+            let mut factors = t.map(index);
+            factors.sort_unstable();
+            let next = index(monomials.len());
+            let m = *numbering.entry(factors).or_insert(next);
+            if m == next {
+                monomials.push(factors);
+            }
+            monomial.push(m);
         }
         Self {
             rows,
-            factors: terms.iter().map(|(_, t, _)| t.map(index)).collect(),
+            monomial,
             coefficients: terms.iter().map(|&(_, _, c)| c).collect(),
+            monomials,
         }
     }
 
-    /// Each row's index with its factors and coefficients.
-    fn rows(&self) -> impl Iterator<Item = (usize, &[[u32; N]], &[f64])> {
+    /// Each row's index with its terms' monomials and coefficients.
+    fn rows(&self) -> impl Iterator<Item = (usize, &[u32], &[f64])> {
         let starts = std::iter::once(0).chain(self.rows.iter().map(|&(_, end)| end as usize));
         self.rows.iter().zip(starts).map(|(&(i, end), start)| {
             let span = start..end as usize;
             (
                 i as usize,
-                &self.factors[span.clone()],
+                &self.monomial[span.clone()],
                 &self.coefficients[span],
             )
         })
     }
+
+    /// Each term's factors and coefficient, in the terms' order.
+    fn terms(&self) -> impl Iterator<Item = (&[u32; N], f64)> {
+        (self.monomial.iter().zip(&self.coefficients))
+            .map(|(&m, &c)| (&self.monomials[m as usize], c))
+    }
+
+    /// Every monomial's value at `x` to twice the working precision, `head + tail`
+    /// (`|tail| ≤ N u |head|`; error-free products, the tails carried plainly), into
+    /// `values`. Heads and tails apart: a row's plain sum reads only the heads. Inlined into
+    /// [`linalg::with_fused_multiply_add`], as its error-free products need.
+    #[inline(always)]
+    fn monomial_values(&self, x: &[f64], values: &mut MonomialValues) {
+        let (heads, tails) = values;
+        heads.clear();
+        tails.clear();
+        for t in &self.monomials {
+            let (head, tail) =
+                t[1..]
+                    .iter()
+                    .fold((x[t[0] as usize], 0.0f64), |(head, tail), &d| {
+                        let (p, e) = linalg::exact_product(head, x[d as usize]);
+                        (p, tail.mul_add(x[d as usize], e))
+                    });
+            heads.push(head);
+            tails.push(tail);
+        }
+    }
+}
+
+/// The monomials' values, heads and tails ([`CompactTerms::monomial_values`]).
+type MonomialValues = (Vec<f64>, Vec<f64>);
+
+thread_local! {
+    /// The monomials' values of the last evaluation on this thread: ~1.5 MB at 10⁴ dofs,
+    /// allocated once a thread rather than once an evaluation.
+    static MONOMIALS: std::cell::RefCell<MonomialValues> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
 /// Why a polynomial tensor is refused. Indices are 0-based in the library;
@@ -361,49 +419,70 @@ impl<const N: usize> Terms<N> {
             .product()
     }
 
-    /// `init + Σ c Π x_t` over one row's terms, the sum redone in twice the working precision
-    /// when the terms cancel (eq. (57a)): the expanded polynomial of a fine mesh spells a
-    /// strain's power — a difference of neighbouring dofs cubed — as monomials, which on a
-    /// smooth field cancel like `(λ/h)³`, ~1e9 at 10⁴ dofs, where the element forms the
-    /// difference first. Summed plainly, that round-off (3e-7–9e-7 of the shooting residual
-    /// at 10⁴ dofs) was what the corrector stalled on.
+    /// `init + Σ c m` over one row's terms, `m` their monomials' values (`head + tail`, twice
+    /// the working precision), the sum redone in twice the working precision when the terms
+    /// cancel (eq. (57a)): the expanded polynomial of a fine mesh spells a strain's power — a
+    /// difference of neighbouring dofs cubed — as monomials, which on a smooth field cancel
+    /// like `(λ/h)³`, ~1e9 at 10⁴ dofs, where the element forms the difference first. Summed
+    /// plainly, that round-off (3e-7–9e-7 of the shooting residual at 10⁴ dofs) was what the
+    /// corrector stalled on.
     #[inline]
-    fn row_force(init: f64, (factors, coefficients): (&[[u32; N]], &[f64]), x: &[f64]) -> f64 {
-        let row = || factors.iter().zip(coefficients);
-        let monomial = |t: &[u32; N], c: f64| t.iter().fold(c, |p, &d| p * x[d as usize]);
-        let exact_monomial = |t: &[u32; N], c: f64| {
-            t.iter().fold((c, 0.0), |(head, tail), &d| {
-                let (p, e) = linalg::exact_product(head, x[d as usize]);
-                (p, tail * x[d as usize] + e)
-            })
-        };
+    fn row_force(
+        init: f64,
+        (monomials, coefficients): (&[u32], &[f64]),
+        (heads, tails): (&[f64], &[f64]),
+    ) -> f64 {
+        let row = || monomials.iter().zip(coefficients);
         linalg::cancelling_sum(
             init,
-            row().map(|(t, &c)| monomial(t, c)),
-            || row().map(|(t, &c)| exact_monomial(t, c)),
+            row().map(|(&m, &c)| c * heads[m as usize]),
+            || {
+                row().map(|(&m, &c)| {
+                    let (p, e) = linalg::exact_product(c, heads[m as usize]);
+                    (p, c.mul_add(tails[m as usize], e))
+                })
+            },
             ROW_CANCELLATION,
         )
     }
 
+    /// `work` on the monomials' values at `x`, formed on this thread's buffer.
+    fn with_monomials<R>(&self, x: &[f64], work: impl FnOnce((&[f64], &[f64])) -> R) -> R {
+        MONOMIALS.with(|values| {
+            let values = &mut *values.borrow_mut();
+            linalg::with_fused_multiply_add(
+                #[inline(always)]
+                || self.compact.monomial_values(x, values),
+            );
+            work((&values.0, &values.1))
+        })
+    }
+
     fn add_force(&self, x: &[f64], f: &mut [f64]) {
-        for (i, factors, coefficients) in self.compact.rows() {
-            f[i] = Self::row_force(f[i], (factors, coefficients), x);
-        }
+        self.with_monomials(x, |values| {
+            for (i, monomials, coefficients) in self.compact.rows() {
+                f[i] = Self::row_force(f[i], (monomials, coefficients), values);
+            }
+        })
     }
 
     /// `xᵀ f_N(x)`, i.e. `(N + 1) V_N` (eq. (58)), from the rows' sums (which cancel as the
     /// force's do).
     fn x_dot_force(&self, x: &[f64]) -> f64 {
-        (self.compact.rows())
-            .map(|(i, factors, coefficients)| {
-                x[i] * Self::row_force(0.0, (factors, coefficients), x)
-            })
-            .sum()
+        self.with_monomials(x, |values| {
+            (self.compact.rows())
+                .map(|(i, monomials, coefficients)| {
+                    x[i] * Self::row_force(0.0, (monomials, coefficients), values)
+                })
+                .sum()
+        })
     }
 
     fn add_tangent_product(&self, x: &[f64], dx: &[f64], out: &mut [f64]) {
-        for (i, factors, coefficients) in self.compact.rows() {
-            for (t, &c) in factors.iter().zip(coefficients) {
+        let compact = &self.compact;
+        for (i, monomials, coefficients) in compact.rows() {
+            for (&m, &c) in monomials.iter().zip(coefficients) {
+                let t = &compact.monomials[m as usize];
                 let d: f64 = (0..N)
                     .map(|p| dx[t[p] as usize] * Self::others(t, p, x))
                     .sum();
@@ -414,16 +493,17 @@ impl<const N: usize> Terms<N> {
 
     /// Tangent positions `(i, t_p)` of every term, in the order of [`Self::tangent_values`].
     fn pattern(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        self.terms
-            .iter()
-            .flat_map(|&(i, t, _)| t.into_iter().map(move |d| (i, d)))
+        let compact = &self.compact;
+        compact.rows().flat_map(move |(i, monomials, _)| {
+            monomials
+                .iter()
+                .flat_map(move |&m| compact.monomials[m as usize].map(|d| (i, d as usize)))
+        })
     }
 
     /// `∂(c Π x_t)/∂x_{t_p} = c Π_{q≠p} x_{t_q}` at each position of [`Self::pattern`].
     fn tangent_values(&self, x: &[f64], out: &mut [f64]) {
-        let compact = &self.compact;
-        let terms = compact.factors.iter().zip(&compact.coefficients);
-        for ((t, &c), o) in terms.zip(out.chunks_exact_mut(N)) {
+        for ((t, c), o) in self.compact.terms().zip(out.chunks_exact_mut(N)) {
             for (p, o) in o.iter_mut().enumerate() {
                 *o = c * Self::others(t, p, x);
             }
