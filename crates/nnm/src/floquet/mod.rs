@@ -107,15 +107,7 @@ impl Floquet {
                 // quadruplet's other): z w = 1 or z w̄ = 1.
                 let product = (z.0 * w.0 - z.1 * w.1 - 1.0).hypot(z.0 * w.1 + z.1 * w.0);
                 let conjugate = (z.0 * w.0 + z.1 * w.1 - 1.0).hypot(z.1 * w.0 - z.0 * w.1);
-                // z's own conjugate is 1/z on the circle: a pair on it, moved inward by the
-                // damping, is `|z|² = 1 − 2(1 − |z|)` away from it.
-                let own = z.1 != 0.0 && (w.0 - z.0).hypot(w.1 + z.1) <= 1e-12 * modulus(z);
-                let limit = if own {
-                    RECIPROCAL_PARTNER
-                } else {
-                    UNSTABLE_PARTNER
-                };
-                j != i && product.min(conjugate) < limit
+                j != i && product.min(conjugate) < RECIPROCAL_PARTNER
             })
         };
         let kept: Vec<Complex> = rest
@@ -127,22 +119,11 @@ impl Floquet {
     }
 }
 
-/// How close `μ μ̄ = |μ|²` must come to 1 for a pair on the circle moved inward by the
-/// damping to be kept by [`Floquet::without_damped`]: loose — the modes resolved to a damping
-/// `1 − |μ|` below 5% — since such a pair stays elliptic, and its angle still tells where it
-/// meets others.
+/// How close `μ ν` (or `μ ν̄`) must come to 1 for `ν` to count as `μ`'s reciprocal partner in
+/// [`Floquet::without_damped`]: loose, since the damping moves both members of an unstable
+/// pair inward (by ~1e-5 to 1e-3 on the resolved modes), while a damped multiplier's would-be
+/// partner lies outside the circle by as much as it lies inside — and none is there.
 const RECIPROCAL_PARTNER: f64 = 0.1;
-
-/// How close `μ ν` (or `μ ν̄`) must come to 1 for another multiplier `ν` to count as `μ`'s
-/// reciprocal partner in [`Floquet::without_damped`]: ten times what the damping moves both
-/// members of an unstable pair inward on the resolved modes (~1e-5 to 1e-3), while a damped
-/// multiplier's would-be partner lies outside the circle by as much as it lies inside — and
-/// none is there. Why not [`RECIPROCAL_PARTNER`]'s 0.1: a mode damped by 7% then passed for
-/// the partner of any undamped one whose angle came within 0.07 rad of its conjugate's, so
-/// that it came and went from point to point — on the von Kármán beams of 100 to 1,000
-/// elements, four steps to +8% each refined three times for nothing (12 trial points, the
-/// branch 1.5× its time without events).
-const UNSTABLE_PARTNER: f64 = 1e-2;
 
 /// Computes the multipliers of a monodromy matrix: the plug-in point for the eigen-solver
 /// (dense full spectrum today; multipliers of largest modulus by Arnoldi for large models).

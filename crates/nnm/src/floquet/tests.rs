@@ -200,32 +200,22 @@ fn without_damped_drops_unpartnered_multipliers_inside_the_circle() {
     );
 }
 
-/// A mode damped by 7% is dropped even where an undamped mode's conjugate comes within
-/// 0.03 rad of it (`|μ ν − 1| ≈ 0.074`: a reciprocal partner to the former loose test, by which
-/// such a mode came and went from point to point along the von Kármán beams' branches); a
-/// mode damped by 1% is kept, its own conjugate its reciprocal up to the damping.
+/// A pair through `+1` and a quadruplet of a mode the integrator damps by 2% (both members
+/// moved inward, `|μ ν| = 0.96`) keep both members: the events of modes at the edge of what
+/// the step resolves are not lost with their damping.
 #[test]
-fn without_damped_takes_no_passing_mode_for_a_partner() {
+fn without_damped_keeps_unstable_pairs_of_damped_modes() {
     let mut m = Mat::<f64>::zeros(8, 8);
     m[(0, 0)] = 1.0;
     m[(0, 1)] = 0.5;
     m[(1, 1)] = 1.0;
-    rotation(&mut m, 2, 0.932, 1.2);
-    rotation(&mut m, 4, 1.0, 1.17);
-    rotation(&mut m, 6, 0.99, 2.0);
+    m[(2, 2)] = 1.01 * 0.98;
+    m[(3, 3)] = 0.98 / 1.01;
+    rotation(&mut m, 4, 1.05 * 0.98, 0.8);
+    rotation(&mut m, 6, 0.98 / 1.05, 0.8);
     let tolerance = DEFAULT_STABILITY_TOLERANCE;
-    let all = analyse(&m, tolerance).unwrap();
-    assert_eq!(all.multipliers.len(), 8);
-    let kept = all.without_damped(tolerance);
-    let mut moduli: Vec<f64> = kept.multipliers.iter().map(|&z| modulus(z)).collect();
-    moduli.sort_by(f64::total_cmp);
-    assert_eq!(moduli.len(), 6, "{:?}", kept.multipliers);
-    assert!((moduli[0] - 0.99).abs() < 1e-9 && (moduli[1] - 0.99).abs() < 1e-9);
-    assert!(
-        moduli[2..].iter().all(|r| (r - 1.0).abs() < 1e-9),
-        "{moduli:?}"
-    );
-    assert!(kept.stable);
+    let kept = analyse(&m, tolerance).unwrap().without_damped(tolerance);
+    assert_eq!(kept.multipliers.len(), 8, "{:?}", kept.multipliers);
 }
 
 /// A symplectic monodromy in the coordinates `(ω_c q_c, q̇_c)` (ω_c = 1): the trivial block on
