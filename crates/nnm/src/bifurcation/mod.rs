@@ -266,10 +266,6 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
         }
         seen.len()
     };
-    // A kind whose pairs are as many at both ends lost and gained none, however its twins
-    // merged: two invariants of different pairs passing each other on the circle make a
-    // passing twin (the 500-sector disk's 999 elliptic pairs count 493 to 501 distinct ones
-    // from point to point, every step refined three times for nothing).
     // Elliptic pairs damped by more than RESOLUTION_EDGE, found at the end with more pairs
     // only, are the edge of what a damping integrator's step resolves moving, not pairs
     // leaving or joining the circle (docs/method.md eq. (44b)).
@@ -290,6 +286,10 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
         true => total.abs().min(edges.abs()) as usize,
         false => 0,
     };
+    // A kind whose pairs are as many at both ends lost and gained none, however its twins
+    // merged: two invariants of different pairs passing each other on the circle make a
+    // passing twin (the 500-sector disk's 999 elliptic pairs count 493 to 501 distinct ones
+    // from point to point, every step refined three times for nothing).
     let moved: usize = kinds
         .iter()
         .map(|&k| {
