@@ -277,14 +277,12 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
             })
             .count() as isize
     };
-    let more = |f: &Floquet, g: &Floquet| f.pairs.len() as isize - g.pairs.len() as isize;
-    let (total, edges) = (
-        more(&b.floquet, &a.floquet),
-        edge(&b.floquet) - edge(&a.floquet),
-    );
-    let resolution = match total * edges > 0 {
-        true => total.abs().min(edges.abs()) as usize,
-        false => 0,
+    let total = b.floquet.pairs.len() as isize - a.floquet.pairs.len() as isize;
+    let edges = edge(&b.floquet) - edge(&a.floquet);
+    let resolution = if total * edges > 0 {
+        total.abs().min(edges.abs()) as usize
+    } else {
+        0
     };
     // A kind whose pairs are as many at both ends lost and gained none, however its twins
     // merged: two invariants of different pairs passing each other on the circle make a

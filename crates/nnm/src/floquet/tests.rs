@@ -3,10 +3,7 @@ use super::*;
 #[test]
 fn trivial_pair_is_excluded_and_instability_detected() {
     // Block diagonal: Jordan block at +1, a rotation (stable pair), a saddle (2, 1/2).
-    let mut m = Mat::<f64>::zeros(6, 6);
-    m[(0, 0)] = 1.0;
-    m[(0, 1)] = 3.0;
-    m[(1, 1)] = 1.0;
+    let mut m = with_trivial_pair(6, 3.0);
     let (c, s) = (0.3f64.cos(), 0.3f64.sin());
     m[(2, 2)] = c;
     m[(2, 3)] = -s;
@@ -60,6 +57,16 @@ fn deflation_keeps_a_partner_pair_near_one() {
     }
 }
 
+/// An `n × n` monodromy holding only the trivial pair: the Jordan block at `+1` (coupling
+/// `shear`) on coordinates 0 and 1; the tests add their pairs beside it.
+fn with_trivial_pair(n: usize, shear: f64) -> Mat<f64> {
+    let mut m = Mat::<f64>::zeros(n, n);
+    m[(0, 0)] = 1.0;
+    m[(0, 1)] = shear;
+    m[(1, 1)] = 1.0;
+    m
+}
+
 /// A 2×2 block with eigenvalues `r e^{±iθ}`.
 fn rotation(m: &mut Mat<f64>, at: usize, r: f64, theta: f64) {
     let (c, s) = (r * theta.cos(), r * theta.sin());
@@ -74,10 +81,7 @@ fn rotation(m: &mut Mat<f64>, at: usize, r: f64, theta: f64) {
 /// `σ = μ + 1/μ` must be the pair's invariant.
 #[test]
 fn pairs_are_matched_and_classified() {
-    let mut m = Mat::<f64>::zeros(12, 12);
-    m[(0, 0)] = 1.0;
-    m[(0, 1)] = 0.5;
-    m[(1, 1)] = 1.0;
+    let mut m = with_trivial_pair(12, 0.5);
     rotation(&mut m, 2, 1.0, 0.7);
     m[(4, 4)] = 1.3;
     m[(5, 5)] = 1.0 / 1.3;
@@ -156,10 +160,7 @@ fn split_analysis_matches_the_whole_and_falls_back_when_coupled() {
 /// both members moved inward by the damping (kept, unstable).
 #[test]
 fn without_damped_drops_unpartnered_multipliers_inside_the_circle() {
-    let mut m = Mat::<f64>::zeros(16, 16);
-    m[(0, 0)] = 1.0;
-    m[(0, 1)] = 0.5;
-    m[(1, 1)] = 1.0;
+    let mut m = with_trivial_pair(16, 0.5);
     rotation(&mut m, 2, 1.0 - 1e-5, 0.7);
     rotation(&mut m, 4, 0.77, 1.2);
     m[(6, 6)] = 0.002;
@@ -205,10 +206,7 @@ fn without_damped_drops_unpartnered_multipliers_inside_the_circle() {
 /// the step resolves are not lost with their damping.
 #[test]
 fn without_damped_keeps_unstable_pairs_of_damped_modes() {
-    let mut m = Mat::<f64>::zeros(8, 8);
-    m[(0, 0)] = 1.0;
-    m[(0, 1)] = 0.5;
-    m[(1, 1)] = 1.0;
+    let mut m = with_trivial_pair(8, 0.5);
     m[(2, 2)] = 1.01 * 0.98;
     m[(3, 3)] = 0.98 / 1.01;
     rotation(&mut m, 4, 1.05 * 0.98, 0.8);
