@@ -412,58 +412,87 @@ pub(crate) fn test_function(crossing: Crossing, point: &BranchPoint) -> Option<(
         )),
         Crossing::PlusOne { resting } => characteristic(pairs, 2.0, resting),
         Crossing::MinusOne { resting } => characteristic(pairs, -2.0, resting),
-        Crossing::Krein { rho, count } => {
-            // Near `rho`, either a quadruplet (complex conjugate invariants σ, σ̄) or the
-            // `count` invariants on the circle that collide into it. With `c` their mean,
-            // `4 mean(Re (σ - c)²)` is `(σ₁ - σ₂)²` for two real ones and `-4 (Im σ)²` for a
-            // conjugate pair, so the function passes zero at the collision; pairs degenerate
-            // by symmetry repeat the same values. A quadruplet is taken whole (σ with σ̄) when
-            // it is the nearest to `rho`: picking invariants one by one would mix σ with an
-            // elliptic invariant of another pair passing by, whose `(Re σ − σ_e)² − (Im σ)²`
-            // has a zero that is no collision (seen on the bladed disk's (1,14) backbone,
-            // 0.56 before the true one, on a long step).
-            let distance = |s: &Complex| (s.0 - rho).hypot(s.1);
-            let nearest_complex = pairs
-                .iter()
-                .filter(|p| p.kind == PairKind::Complex)
-                .min_by(|x, y| distance(&x.trace()).total_cmp(&distance(&y.trace())));
-            let mut elliptic: Vec<(Complex, Complex)> = pairs
-                .iter()
-                .filter(|p| p.kind == PairKind::Elliptic)
-                .map(|p| (p.trace(), p.multiplier))
-                .collect();
-            elliptic.sort_by(|x, y| distance(&x.0).total_cmp(&distance(&y.0)));
-            let conjugate = |m: Complex| if m.1 >= 0.0 { m } else { (m.0, -m.1) };
-            if let Some(q) = nearest_complex {
-                let sigma = q.trace();
-                let closer_elliptic = elliptic.len() >= count.max(2)
-                    && elliptic[..count.max(2)]
-                        .iter()
-                        .all(|(s, _)| distance(s) < (sigma.0 - rho).abs());
-                if !closer_elliptic {
-                    return Some((-4.0 * sigma.1 * sigma.1, conjugate(q.multiplier)));
-                }
-            }
-            if elliptic.len() < count.max(2) {
-                return None;
-            }
-            elliptic.truncate(count.max(2));
-            // (Pairs within the stability tolerance of the circle count as elliptic while
-            // their invariants are already slightly complex: the imaginary parts keep the
-            // function continuous through the collision.)
-            let k = elliptic.len() as f64;
-            let centre = (
-                elliptic.iter().map(|(s, _)| s.0).sum::<f64>() / k,
-                elliptic.iter().map(|(s, _)| s.1).sum::<f64>() / k,
-            );
-            let spread = elliptic
-                .iter()
-                .map(|(s, _)| (s.0 - centre.0).powi(2) - (s.1 - centre.1).powi(2))
-                .sum::<f64>()
-                / k;
-            Some((4.0 * spread, conjugate(elliptic[0].1)))
-        }
+        Crossing::Krein { rho, .. } => krein_collision(pairs, rho),
     }
+}
+
+/// The Krein collision's test function near `rho` (docs/method.md eq. (41)): `(σ₁ − σ₂)²` for
+/// two invariants on the circle about to collide, `−4 (Im σ)²` for a quadruplet they formed;
+/// both are `4κ (s − s*)` near the collision, so the function is continuous and linear
+/// through it. Also returns the critical multiplier.
+///
+/// The candidates (eq. (41a)) are every quadruplet — any pair whose invariant is complex
+/// beyond round-off, including one still within the stability tolerance of the circle and
+/// so classed elliptic — and every two invariants on the circle that can meet: neighbours
+/// among the pairs of their block that move modes in common (others pass them freely), of
+/// opposite Krein signatures where both are known. Of these, the one whose invariants lie
+/// nearest `rho` — the farther of two real ones, or the complex one's distance in the plane
+/// — is taken: near the collision its own invariants close on `rho`, where another pair's
+/// stay apart. Taking instead the real invariants nearest `rho` picked two of one group
+/// when another group moved nearer, or a pair passing freely, and the function jumped there.
+fn krein_collision(pairs: &[crate::floquet::MultiplierPair], rho: f64) -> Option<(f64, Complex)> {
+    let conjugate = |m: Complex| if m.1 >= 0.0 { m } else { (m.0, -m.1) };
+    let complex_invariant = |s: Complex| s.1.abs() > ROUND_OFF_INVARIANT * s.0.abs().max(1.0);
+    // (distance from rho, test function, multiplier)
+    let quadruplets = pairs
+        .iter()
+        .filter(|p| {
+            p.kind == PairKind::Complex
+                || (p.kind == PairKind::Elliptic && complex_invariant(p.trace()))
+        })
+        .map(|p| {
+            let sigma = p.trace();
+            let distance = (sigma.0 - rho).abs().max(sigma.1.abs());
+            (distance, -4.0 * sigma.1 * sigma.1, conjugate(p.multiplier))
+        });
+    struct OnCircle {
+        block: u8,
+        sigma: f64,
+        sign: i8,
+        modes: u128,
+        multiplier: Complex,
+    }
+    let mut real: Vec<OnCircle> = pairs
+        .iter()
+        .filter(|p| p.kind == PairKind::Elliptic && !complex_invariant(p.trace()))
+        .map(|p| OnCircle {
+            block: p.krein.map_or(u8::MAX, |k| k.block),
+            sigma: p.trace().0,
+            sign: p.krein.map_or(0, |k| k.sign),
+            modes: p.krein.map_or(u128::MAX, |k| k.modes),
+            multiplier: p.multiplier,
+        })
+        .collect();
+    real.sort_by(|x, y| x.block.cmp(&y.block).then(x.sigma.total_cmp(&y.sigma)));
+    let meetings = (0..real.len()).filter_map(|i| {
+        let x = &real[i];
+        // Its next neighbour upwards among the pairs it interacts with.
+        let y = real[i + 1..]
+            .iter()
+            .take_while(|y| y.block == x.block)
+            .find(|y| y.modes & x.modes != 0)?;
+        // Two of one signature pass each other (a twin's members share theirs). A signature
+        // too small to tell is that of a pair about to meet (or at ±1): any two apart by
+        // more than round-off. Without signatures: any two that are not twins.
+        let apart = |threshold: f64| (y.sigma - x.sigma).abs() > threshold * x.sigma.abs().max(1.0);
+        let opposite = match (x.sign, y.sign) {
+            _ if x.block == u8::MAX => apart(TWIN_INVARIANT),
+            (0, _) | (_, 0) => apart(ROUND_OFF_INVARIANT),
+            (a, b) => a != b,
+        };
+        opposite.then(|| {
+            let distance = (x.sigma - rho).abs().max((y.sigma - rho).abs());
+            (
+                distance,
+                (y.sigma - x.sigma).powi(2),
+                conjugate(x.multiplier),
+            )
+        })
+    });
+    quadruplets
+        .chain(meetings)
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .map(|(_, value, multiplier)| (value, multiplier))
 }
 
 /// `∏ (target - σ_k)·sign(target)` over the distinct invariants (twins by symmetry counted
@@ -521,6 +550,12 @@ fn characteristic(
 /// steps to +8% at 100 to 1,000 elements (12 trial points, the branch 1.5× its time without
 /// events), and at 10⁴ dofs trials at their round-off floor.
 const RESOLUTION_EDGE: f64 = 1e-2;
+
+/// An invariant whose imaginary part is below this (relative) is real: a pair on the circle
+/// has `ν = μ̄` to round-off (1e-15 seen), while a quadruplet's invariant near its collision
+/// is complex by far more (its `Im σ` grows like `√(s − s*)`) even within the stability
+/// tolerance of the circle.
+const ROUND_OFF_INVARIANT: f64 = 1e-10;
 
 /// Invariants this close (relative) are twins: pairs degenerate by a symmetry of the motion.
 const TWIN_INVARIANT: f64 = 1e-6;
@@ -783,6 +818,68 @@ mod tests {
         assert!(!hidden(&a, &b));
         let quadruplet_at_b = point(1.0, &quadruplet(1.05, 1.0));
         assert!(!hidden(&positive_first(&a, 0.9, true), &quadruplet_at_b));
+    }
+
+    /// The Krein test function follows the two pairs that meet: neighbours of opposite
+    /// signatures among those moving modes in common, not the two invariants nearest `rho`
+    /// (here two of one signature), nor a pair passing between them that moves other modes.
+    /// Across the collision it is `(σ₁ − σ₂)²` on one side and `−4 (Im σ)²` on the other,
+    /// also for a quadruplet still within the stability tolerance of the circle.
+    #[test]
+    fn krein_test_function_follows_the_pairs_that_meet() {
+        let sigma = |angle: f64| 2.0 * angle.cos();
+        // Angles 0.80 and 0.85 of signature +1, 0.95 and 1.00 of −1; 0.90 (+1) moves other
+        // modes. The collision is between 0.85 and 0.95; `rho` sits nearer the first group.
+        let angles = [0.80, 0.85, 0.90, 0.95, 1.00];
+        let before = point(1.0, &angles.map(|a| (1.0, Some(a))));
+        let sign = |angle: f64| if angle < 0.92 { 1 } else { -1 };
+        let modes = |angle: f64| {
+            if (angle - 0.90).abs() < 1e-9 {
+                0b100
+            } else {
+                0b11
+            }
+        };
+        let before = signed(before, sign, modes);
+        let rho = sigma(0.83);
+        let krein = Crossing::Krein { rho, count: 2 };
+        let (f, _) = test_function(krein, &before).unwrap();
+        let expected = (sigma(0.85) - sigma(0.95)).powi(2);
+        assert!((f - expected).abs() < 1e-12 * expected, "{f} vs {expected}");
+        // After: the two met and left as a quadruplet near angle 0.9.
+        let (r, theta) = (1.01, 0.9);
+        let after = point(
+            1.0,
+            &[
+                (1.0, Some(0.80)),
+                (1.0, Some(0.90)),
+                (1.0, Some(1.00)),
+                (r, Some(theta)),
+                (1.0 / r, Some(theta)),
+            ],
+        );
+        let after = signed(after, sign, modes);
+        let (f, _) = test_function(krein, &after).unwrap();
+        // σ = μ + 1/μ for μ = r e^{iθ}: Im σ = (r − 1/r) sin θ.
+        let im = (r - 1.0 / r) * theta.sin();
+        assert!((f + 4.0 * im * im).abs() < 1e-9 * im * im, "{f}");
+        // Within the stability tolerance (1e-4) the quadruplet's pairs are classed elliptic,
+        // yet their invariants are complex: still the quadruplet's value, negative.
+        let r = 1.00005;
+        let inside = point(
+            1.0,
+            &[(1.0, Some(0.80)), (r, Some(theta)), (1.0 / r, Some(theta))],
+        );
+        assert!(
+            inside
+                .floquet
+                .pairs
+                .iter()
+                .all(|p| p.kind == PairKind::Elliptic)
+        );
+        let (f, _) = test_function(krein, &inside).unwrap();
+        let im = (r - 1.0 / r) * theta.sin();
+        assert!((f + 4.0 * im * im).abs() < 1e-6 * im * im, "{f}");
     }
 
     /// Two pairs on the circle passing each other (equal invariants at one end: one twin
