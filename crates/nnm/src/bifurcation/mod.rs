@@ -299,11 +299,15 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
             let raw = count(&a.floquet, k).abs_diff(count(&b.floquet, k));
             // (Twins are merged in quadratic time: not where nothing moved, as on the
             // 5,000-sector disk's 10⁴ pairs at every step.)
+            // `distinct` merges a complex invariant with its conjugate, so it counts a
+            // quadruplet once where `raw` counts its two pairs: twice its count, in pairs.
+            let pairs_per_invariant = if k == PairKind::Complex { 2 } else { 1 };
             match raw.saturating_sub(discount) {
                 0 => 0,
                 raw => raw.min(
-                    (distinct(&a.floquet, k).abs_diff(distinct(&b.floquet, k)))
-                        .saturating_sub(discount),
+                    (pairs_per_invariant
+                        * distinct(&a.floquet, k).abs_diff(distinct(&b.floquet, k)))
+                    .saturating_sub(discount),
                 ),
             }
         })
@@ -901,6 +905,35 @@ mod tests {
     /// A pair damped by 5% found at one end only is the edge of what a damping integrator's
     /// step resolves moving (RESOLUTION_EDGE): nothing to explain. A pair on the circle found
     /// at one end only is a change.
+    /// Two quadruplets born in one step (from twin pairs, as on the n = 1 families, where
+    /// the harmonics' blocks repeat each invariant) are more than the one Krein collision
+    /// detected there explains: a quadruplet's conjugate invariants count once among the
+    /// distinct ones but twice among the pairs. Counted once, the step was not refined and
+    /// the second collision was lost (the (1,8) family between E = 4.8 and 7.1).
+    #[test]
+    fn two_quadruplets_in_one_step_are_more_than_one_collision() {
+        let a = point(
+            1.0,
+            &[
+                (1.0, Some(0.5)),
+                (1.0, Some(0.5)),
+                (1.0, Some(0.6)),
+                (1.0, Some(0.6)),
+            ],
+        );
+        let [p, q] = quadruplet(1.02, 0.55);
+        let [r, s] = quadruplet(1.03, 0.57);
+        let b = point(1.0, &[p, q, r, s]);
+        let found = detect(&a, &b);
+        assert_eq!(found.len(), 1);
+        assert!(unexplained(&a, &b, &found));
+        // One quadruplet from one twin set of pairs is what the collision explains.
+        let one = point(1.0, &[(1.0, Some(0.5)), (1.0, Some(0.6)), p, q]);
+        let found = detect(&a, &one);
+        assert_eq!(found.len(), 1);
+        assert!(!unexplained(&a, &one, &found), "{found:?}");
+    }
+
     #[test]
     fn a_damped_pair_at_one_end_only_is_no_unexplained_change() {
         let resolved = point(1.0, &[(1.0, Some(1.0)), (1.0, Some(2.0))]);
