@@ -76,6 +76,7 @@ fn branch_change() -> impl Strategy<Value = String> {
         "integrator",
         "integration_factor",
         "stability_tolerance",
+        "invariant_step",
         "output_dofs",
         "pattern",
         "mode",

@@ -234,7 +234,11 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                 let (energy, frequency) = (point.energy, point.frequency);
                 let previous = regular.as_ref();
                 let cap = previous.and_then(|p| step_to_limits(limits, start.omega, p, &point));
-                continuation.cap_next_step(cap);
+                let spectral = previous.and_then(|p| step_to_invariant_bound(settings, p, &point));
+                continuation.cap_next_step(match (cap, spectral) {
+                    (Some(a), Some(b)) => Some(a.min(b)),
+                    (a, b) => a.or(b),
+                });
                 regular = Some(point.clone());
                 regular_points += 1;
                 points.push(point);
@@ -400,6 +404,22 @@ fn step_to_limits(
             (now < 0.0 && rate > 0.0 && rate.is_finite()).then(|| LIMIT_REACH * (-now / rate))
         })
         .min_by(f64::total_cmp)
+}
+
+/// The step that would move the pair invariants by `invariant_step` at the rate the last
+/// step moved them (docs/method.md eq. (44c)); `None` without events, without a bound, or
+/// where the two analyses do not compare.
+fn step_to_invariant_bound(
+    settings: &Settings,
+    previous: &BranchPoint,
+    current: &BranchPoint,
+) -> Option<f64> {
+    let bound = settings.stability.invariant_step;
+    if !settings.stability.events || !bound.is_finite() || current.step <= 0.0 {
+        return None;
+    }
+    let shift = previous.floquet.invariant_shift(&current.floquet)?;
+    (shift > bound * 1e-12).then(|| current.step * bound / shift)
 }
 
 /// How far past the secant's prediction of a limit (26c) aims, as a multiple of the distance

@@ -157,6 +157,7 @@ impl Settings {
         "integration_factor",
         "stability_tolerance",
         "events",
+        "invariant_step",
         "output_dofs",
     ];
 
@@ -238,6 +239,13 @@ impl Settings {
             return fail(format!(
                 "stability_tolerance must be finite and non-negative, got {}",
                 Number(s)
+            ));
+        }
+        let bound = self.stability.invariant_step;
+        if !(bound > 0.0) {
+            return fail(format!(
+                "invariant_step must be positive, got {}",
+                Number(bound)
             ));
         }
         if c.min_step > c.max_step {

@@ -484,3 +484,44 @@ fn events_do_not_depend_on_the_step_or_the_tolerance() {
         }
     }
 }
+
+/// `invariant_step` bounds how far the pair invariants move between consecutive points (the
+/// cap extrapolates the last step's rate, so a step may exceed it where the motion speeds up:
+/// allowed 2×), where the curve alone lets a step move them by several times the bound; and
+/// the bounded branch, whose steps resolve more, finds at least the events the unbounded one
+/// does on the bladed disk's (1,8) family to E = 10 (docs/method.md eq. (44c)).
+#[test]
+fn invariant_step_bounds_how_far_the_multipliers_move_in_a_step() {
+    let disk = BladedDisk::default().build().unwrap();
+    let modes = linear_modes(&disk).unwrap();
+    let (index, _) = find_mode(&modes, "1,8", Some(StandingWave::Cos)).unwrap();
+    let start = Start::from_linear_mode(&disk, &modes, index, None).unwrap();
+    let run = |bound: f64| {
+        let mut settings = Settings::default();
+        settings.limits.energy_max = 40.0;
+        settings.stability.invariant_step = bound;
+        branch(&disk, &start, &settings)
+    };
+    let largest_shift = |b: &Branch| {
+        b.points
+            .windows(2)
+            .filter_map(|w| w[0].floquet.invariant_shift(&w[1].floquet))
+            .fold(0.0, f64::max)
+    };
+    let bound = 0.05;
+    let (free, bounded) = (run(f64::INFINITY), run(bound));
+    let (a, b) = (largest_shift(&free), largest_shift(&bounded));
+    eprintln!(
+        "(1,8) to E = 40: unbounded {} points, largest shift {a:.3}, {} events; bounded by {bound}: {} points, largest shift {b:.3}, {} events",
+        free.points.len(),
+        free.events.len(),
+        bounded.points.len(),
+        bounded.events.len()
+    );
+    assert!(
+        a > 3.0 * bound,
+        "the unbounded branch moved its invariants by {a} at most"
+    );
+    assert!(b <= 2.0 * bound, "a bounded step moved an invariant by {b}");
+    assert!(bounded.events.len() >= free.events.len());
+}

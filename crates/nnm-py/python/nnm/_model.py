@@ -320,7 +320,7 @@ def backbone(
     (``tolerance``, ``initial_step``, ``min_step``, ``max_step``, ``max_iterations``,
     ``target_iterations``, ``max_turn_angle``, ``energy_start``, ``symmetry``, ``phase``,
     ``jacobian``, ``half_period``, ``integrator``, ``integration_factor``,
-    ``stability_tolerance``, ``events``, and ``at_energies`` / ``at_frequencies``: lists of
+    ``stability_tolerance``, ``events``, ``invariant_step``, and ``at_energies`` / ``at_frequencies``: lists of
     values (rad/s for frequencies) that get points exactly on them, ``label`` says which;
     docs/job-files.md "Settings"). ``resonance_force`` (an :class:`nnm.Force` or its dict, e.g.
     ``{"dofs": [0]}``; an amplitude is not needed) asks every point for the force amplitude

@@ -15,8 +15,8 @@ use crate::linalg::{self, Complex, LinalgError, Mat};
 pub const DEFAULT_STABILITY_TOLERANCE: f64 = 1e-4;
 
 /// Floquet stability and bifurcation events: the tolerance of a point's verdict, which the
-/// shooting problem applies to every point, and whether the branch looks for events between
-/// points (docs/method.md §7–8).
+/// shooting problem applies to every point, whether the branch looks for events between
+/// points, and how far the multipliers may move in one step (docs/method.md §7–8).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]
 pub struct StabilitySettings {
@@ -26,6 +26,15 @@ pub struct StabilitySettings {
     /// Detect folds, branch points, period doublings and Krein collisions between points and
     /// locate them (default true).
     pub events: bool,
+    /// With events on, the largest move of any pair invariant `σ = μ + 1/μ` in one step
+    /// ([`Floquet::invariant_shift`], docs/method.md eq. (44c)): the next step is shortened
+    /// to what the last one moved them at that rate. Changes of the multipliers' pattern
+    /// that undo themselves between two points are seen only as far as the steps resolve
+    /// them; on a dense spectrum (the bladed disk's 59 pairs in `[−2, 2]`) a bound below the
+    /// pairs' spacing resolves most. Default `+∞`: the steps follow the curve alone — on a
+    /// finite-element model the invariants of the high modes turn round the circle with any
+    /// change of the period, and a bound would shrink every step.
+    pub invariant_step: f64,
 }
 
 impl Default for StabilitySettings {
@@ -33,6 +42,7 @@ impl Default for StabilitySettings {
         Self {
             stability_tolerance: DEFAULT_STABILITY_TOLERANCE,
             events: true,
+            invariant_step: f64::INFINITY,
         }
     }
 }
@@ -71,6 +81,40 @@ impl Floquet {
             unstable_pairs: 0,
             reciprocity_defect: f64::NAN,
         }
+    }
+}
+
+/// Where [`Floquet::invariant_shift`] stops following an invariant: beyond `±2` by this, a
+/// real pair off the circle matters again only once back at `±1`.
+const SHIFT_LIMIT: f64 = 2.2;
+
+impl Floquet {
+    /// The largest distance the real part of a pair invariant `σ = μ + 1/μ` moved between
+    /// two analyses (docs/method.md eq. (44c)): both sets sorted and matched in that order
+    /// (on a line the sorted matching moves the farthest least), each clamped to `|σ| ≤ 2.2`.
+    /// The real parts, because they move continuously through every event — two invariants
+    /// colliding on the circle leave as a quadruplet whose real part is where they met, while
+    /// its imaginary part grows like a square root — and because an invariant on the circle
+    /// meets another, or `±2`, only by its real part moving there. `None` when the numbers of
+    /// pairs differ (an Arnoldi analysis's partial spectra) or there are none.
+    pub fn invariant_shift(&self, other: &Floquet) -> Option<f64> {
+        if self.pairs.len() != other.pairs.len() || self.pairs.is_empty() {
+            return None;
+        }
+        let sorted = |f: &Floquet| {
+            let mut x: Vec<f64> = (f.pairs.iter())
+                .map(|p| p.trace().0.clamp(-SHIFT_LIMIT, SHIFT_LIMIT))
+                .collect();
+            x.sort_by(f64::total_cmp);
+            x
+        };
+        let (x, y) = (sorted(self), sorted(other));
+        Some(
+            x.iter()
+                .zip(&y)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max),
+        )
     }
 }
 

@@ -290,3 +290,44 @@ fn pairs_on_the_circle_carry_their_krein_signatures() {
     assert_eq!((sign_at(&f, 1.0).block, sign_at(&f, 1.0).sign), (0, 1));
     assert_eq!((sign_at(&f, 1.5).block, sign_at(&f, 1.5).sign), (1, -1));
 }
+
+/// The invariant shift matches the two sets of invariants in sorted order (the matching that
+/// moves the farthest least on a line), whatever order the analyses list the pairs in, and
+/// clamps what lies beyond ±2.2.
+#[test]
+fn invariant_shift_is_the_largest_move_of_the_sorted_invariants() {
+    let analysis = |pairs: &[(f64, Option<f64>)]| {
+        let n = 2 * pairs.len();
+        let mut m = Mat::<f64>::zeros(n, n);
+        for (k, (r, angle)) in pairs.iter().enumerate() {
+            let a = 2 * k;
+            match angle {
+                Some(theta) => {
+                    let (c, s) = (r * theta.cos(), r * theta.sin());
+                    m[(a, a)] = c;
+                    m[(a, a + 1)] = -s;
+                    m[(a + 1, a)] = s;
+                    m[(a + 1, a + 1)] = c;
+                }
+                None => {
+                    m[(a, a)] = *r;
+                    m[(a + 1, a + 1)] = 1.0 / r;
+                }
+            }
+        }
+        assemble(linalg::eigenvalues(m.as_ref()).unwrap(), Vec::new(), 1e-4)
+    };
+    let sigma = |theta: f64| 2.0 * theta.cos();
+    let a = analysis(&[(1.0, Some(0.5)), (1.0, Some(1.0)), (5.0, None)]);
+    // Listed the other way round, each invariant moved a little; the real pair off the
+    // circle grew far beyond 2.2, which counts as nothing.
+    let b = analysis(&[(30.0, None), (1.0, Some(1.03)), (1.0, Some(0.52))]);
+    let shift = a.invariant_shift(&b).unwrap();
+    let expected = (sigma(1.0) - sigma(1.03))
+        .abs()
+        .max((sigma(0.5) - sigma(0.52)).abs());
+    assert!((shift - expected).abs() < 1e-12, "{shift} vs {expected}");
+    // Different numbers of pairs (partial spectra) do not compare.
+    let c = analysis(&[(1.0, Some(0.5)), (1.0, Some(1.0))]);
+    assert!(a.invariant_shift(&c).is_none());
+}
