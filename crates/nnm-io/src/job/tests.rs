@@ -876,6 +876,14 @@ fn refused_numbers_are_shown_short() {
             "job.toml: branch 1: invalid setting: max_turn_angle 1e100 exceeds π",
         ),
         (
+            format!("{branch}energy_max = 1.0\ninvariant_step = 0.0"),
+            "job.toml: branch 1: invalid setting: invariant_step must be positive, got 0",
+        ),
+        (
+            format!("{branch}energy_max = 1.0\ninvariant_step = nan"),
+            "job.toml: branch 1: invalid setting: invariant_step must be positive, got NaN",
+        ),
+        (
             format!("{branch}energy_max = 1.0\nstability_tolerance = -1e300"),
             "job.toml: branch 1: invalid setting: stability_tolerance must be finite and non-negative, got -1e300",
         ),

@@ -445,7 +445,7 @@ pub(crate) fn test_function(crossing: Crossing, point: &BranchPoint) -> Option<(
 /// so classed elliptic — and every two invariants on the circle that can meet: neighbours
 /// among the pairs of their block that move modes in common (others pass them freely), of
 /// opposite Krein signatures where both are known. Of these, the one whose invariants lie
-/// nearest `rho` — the farther of two real ones, or the complex one's distance in the plane
+/// nearest `rho` — the farther of two real ones, `max(|Re σ − ρ|, |Im σ|)` for a quadruplet
 /// — is taken: near the collision its own invariants close on `rho`, where another pair's
 /// stay apart. Taking instead the real invariants nearest `rho` picked two of one group
 /// when another group moved nearer, or a pair passing freely, and the function jumped there.
@@ -493,10 +493,11 @@ fn krein_collision(pairs: &[crate::floquet::MultiplierPair], rho: f64) -> Option
         // Two of one signature pass each other (a twin's members share theirs). A signature
         // too small to tell is that of a pair about to meet (or at ±1): any two apart by
         // more than round-off. Without signatures: any two that are not twins.
-        let apart = |threshold: f64| (y.sigma - x.sigma).abs() > threshold * x.sigma.abs().max(1.0);
         let opposite = match (x.sign, y.sign) {
-            _ if x.block == u8::MAX => apart(TWIN_INVARIANT),
-            (0, _) | (_, 0) => apart(ROUND_OFF_INVARIANT),
+            _ if x.block == u8::MAX => !twins((x.sigma, 0.0), (y.sigma, 0.0)),
+            (0, _) | (_, 0) => {
+                (y.sigma - x.sigma).abs() > ROUND_OFF_INVARIANT * x.sigma.abs().max(1.0)
+            }
             (a, b) => a != b,
         };
         opposite.then(|| {
@@ -625,33 +626,12 @@ pub(crate) fn multiplicity(crossing: Crossing, point: &BranchPoint) -> usize {
 mod tests {
     use super::*;
     use crate::floquet;
-    use crate::linalg::Mat;
 
     /// A point whose monodromy is block diagonal: the trivial Jordan block at +1, then one
     /// 2×2 block per pair given as (modulus, angle) of `r e^{±iθ}`, or a real pair
     /// (`μ`, `1/μ`) when the angle is `None`.
     fn point(energy_slope: f64, pairs: &[(f64, Option<f64>)]) -> BranchPoint {
-        let n = 2 + 2 * pairs.len();
-        let mut m = Mat::<f64>::zeros(n, n);
-        m[(0, 0)] = 1.0;
-        m[(0, 1)] = 0.3;
-        m[(1, 1)] = 1.0;
-        for (k, (r, angle)) in pairs.iter().enumerate() {
-            let a = 2 + 2 * k;
-            match angle {
-                Some(theta) => {
-                    let (c, s) = (r * theta.cos(), r * theta.sin());
-                    m[(a, a)] = c;
-                    m[(a, a + 1)] = -s;
-                    m[(a + 1, a)] = s;
-                    m[(a + 1, a + 1)] = c;
-                }
-                None => {
-                    m[(a, a)] = *r;
-                    m[(a + 1, a + 1)] = 1.0 / r;
-                }
-            }
-        }
+        let m = crate::floquet::tests::monodromy_with_pairs(pairs);
         BranchPoint {
             index: 0,
             energy: 1.0,
@@ -891,11 +871,19 @@ mod tests {
         assert!((f + 4.0 * im * im).abs() < 1e-9 * im * im, "{f}");
         // Within the stability tolerance (1e-4) the quadruplet's pairs are classed elliptic,
         // yet their invariants are complex: still the quadruplet's value, negative.
+        // A pair of the same signature at 0.84 lies nearer `rho` than the quadruplet: the
+        // old rule mixed it with one of the quadruplet's invariants.
         let r = 1.00005;
         let inside = point(
             1.0,
-            &[(1.0, Some(0.80)), (r, Some(theta)), (1.0 / r, Some(theta))],
+            &[
+                (1.0, Some(0.80)),
+                (1.0, Some(0.84)),
+                (r, Some(theta)),
+                (1.0 / r, Some(theta)),
+            ],
         );
+        let inside = signed(inside, |_| 1, |_| 0b11);
         assert!(
             inside
                 .floquet
@@ -924,9 +912,6 @@ mod tests {
         assert!(unexplained(&a, &c, &[]));
     }
 
-    /// A pair damped by 5% found at one end only is the edge of what a damping integrator's
-    /// step resolves moving (RESOLUTION_EDGE): nothing to explain. A pair on the circle found
-    /// at one end only is a change.
     /// Two quadruplets born in one step (from twin pairs, as on the n = 1 families, where
     /// the harmonics' blocks repeat each invariant) are more than the one Krein collision
     /// detected there explains: a quadruplet's conjugate invariants count once among the
@@ -956,6 +941,9 @@ mod tests {
         assert!(!unexplained(&a, &one, &found), "{found:?}");
     }
 
+    /// A pair damped by 5% found at one end only is the edge of what a damping integrator's
+    /// step resolves moving (RESOLUTION_EDGE): nothing to explain. A pair on the circle found
+    /// at one end only is a change.
     #[test]
     fn a_damped_pair_at_one_end_only_is_no_unexplained_change() {
         let resolved = point(1.0, &[(1.0, Some(1.0)), (1.0, Some(2.0))]);

@@ -762,4 +762,4 @@ fn reciprocal(z: Complex) -> Complex {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -291,32 +291,30 @@ fn pairs_on_the_circle_carry_their_krein_signatures() {
     assert_eq!((sign_at(&f, 1.5).block, sign_at(&f, 1.5).sign), (1, -1));
 }
 
+/// A monodromy with the trivial Jordan block at `+1` and one 2×2 block per pair given as
+/// `(r, Some(θ))` for `r e^{±iθ}`, or `(μ, None)` for the real pair `(μ, 1/μ)`.
+pub(crate) fn monodromy_with_pairs(pairs: &[(f64, Option<f64>)]) -> Mat<f64> {
+    let mut m = with_trivial_pair(2 + 2 * pairs.len(), 0.3);
+    for (k, &(r, angle)) in pairs.iter().enumerate() {
+        let at = 2 + 2 * k;
+        match angle {
+            Some(theta) => rotation(&mut m, at, r, theta),
+            None => {
+                m[(at, at)] = r;
+                m[(at + 1, at + 1)] = 1.0 / r;
+            }
+        }
+    }
+    m
+}
+
 /// The invariant shift matches the two sets of invariants in sorted order (the matching that
 /// moves the farthest least on a line), whatever order the analyses list the pairs in, and
 /// clamps what lies beyond ±2.2.
 #[test]
 fn invariant_shift_is_the_largest_move_of_the_sorted_invariants() {
-    let analysis = |pairs: &[(f64, Option<f64>)]| {
-        let n = 2 * pairs.len();
-        let mut m = Mat::<f64>::zeros(n, n);
-        for (k, (r, angle)) in pairs.iter().enumerate() {
-            let a = 2 * k;
-            match angle {
-                Some(theta) => {
-                    let (c, s) = (r * theta.cos(), r * theta.sin());
-                    m[(a, a)] = c;
-                    m[(a, a + 1)] = -s;
-                    m[(a + 1, a)] = s;
-                    m[(a + 1, a + 1)] = c;
-                }
-                None => {
-                    m[(a, a)] = *r;
-                    m[(a + 1, a + 1)] = 1.0 / r;
-                }
-            }
-        }
-        assemble(linalg::eigenvalues(m.as_ref()).unwrap(), Vec::new(), 1e-4)
-    };
+    let analysis =
+        |pairs: &[(f64, Option<f64>)]| analyse(&monodromy_with_pairs(pairs), 1e-4).unwrap();
     let sigma = |theta: f64| 2.0 * theta.cos();
     let a = analysis(&[(1.0, Some(0.5)), (1.0, Some(1.0)), (5.0, None)]);
     // Listed the other way round, each invariant moved a little; the real pair off the
