@@ -235,10 +235,7 @@ pub fn continue_branch_observed<S: MechanicalSystem + ?Sized>(
                 let previous = regular.as_ref();
                 let cap = previous.and_then(|p| step_to_limits(limits, start.omega, p, &point));
                 let spectral = previous.and_then(|p| step_to_invariant_bound(settings, p, &point));
-                continuation.cap_next_step(match (cap, spectral) {
-                    (Some(a), Some(b)) => Some(a.min(b)),
-                    (a, b) => a.or(b),
-                });
+                continuation.cap_next_step([cap, spectral].into_iter().flatten().reduce(f64::min));
                 regular = Some(point.clone());
                 regular_points += 1;
                 points.push(point);

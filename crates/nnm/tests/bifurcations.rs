@@ -19,6 +19,15 @@ fn branch(structure: &Structure, start: &Start, settings: &Settings) -> Branch {
     continue_branch(structure, start, settings, |_| ControlFlow::Continue(())).unwrap()
 }
 
+/// The default bladed disk and the start of its cos standing wave `label`.
+fn disk_and_start(label: &str) -> (Structure, Start) {
+    let disk = BladedDisk::default().build().unwrap();
+    let modes = linear_modes(&disk).unwrap();
+    let (index, _) = find_mode(&modes, label, Some(StandingWave::Cos)).unwrap();
+    let start = Start::from_linear_mode(&disk, &modes, index, None).unwrap();
+    (disk, start)
+}
+
 fn of_kind(branch: &Branch, kind: EventKind) -> Vec<&Event> {
     branch.events.iter().filter(|e| e.kind == kind).collect()
 }
@@ -236,10 +245,7 @@ fn duffing_backbone_has_no_events() {
 /// step.
 #[test]
 fn bladed_disk_1_14_folds_and_krein_collisions_do_not_depend_on_the_step() {
-    let structure = BladedDisk::default().build().unwrap();
-    let modes = linear_modes(&structure).unwrap();
-    let (index, _) = find_mode(&modes, "1,14", Some(StandingWave::Cos)).unwrap();
-    let start = Start::from_linear_mode(&structure, &modes, index, None).unwrap();
+    let (structure, start) = disk_and_start("1,14");
     let run = |max_step: f64| {
         branch(&structure, &start, &{
             let mut s = Settings::default();
@@ -424,10 +430,7 @@ fn event_lists(
 /// ones are those of the paper's study at fine steps.
 #[test]
 fn events_do_not_depend_on_the_step_or_the_tolerance() {
-    let disk = BladedDisk::default().build().unwrap();
-    let modes = linear_modes(&disk).unwrap();
-    let (index, _) = find_mode(&modes, "1,14", Some(StandingWave::Cos)).unwrap();
-    let start = Start::from_linear_mode(&disk, &modes, index, None).unwrap();
+    let (disk, start) = disk_and_start("1,14");
     let mut settings = Settings::default();
     settings.limits.energy_max = 9.0;
     let expected = [
@@ -492,10 +495,7 @@ fn events_do_not_depend_on_the_step_or_the_tolerance() {
 /// does on the bladed disk's (1,8) family to E = 40 (docs/method.md eq. (44c)).
 #[test]
 fn invariant_step_bounds_how_far_the_multipliers_move_in_a_step() {
-    let disk = BladedDisk::default().build().unwrap();
-    let modes = linear_modes(&disk).unwrap();
-    let (index, _) = find_mode(&modes, "1,8", Some(StandingWave::Cos)).unwrap();
-    let start = Start::from_linear_mode(&disk, &modes, index, None).unwrap();
+    let (disk, start) = disk_and_start("1,8");
     let run = |bound: f64| {
         let mut settings = Settings::default();
         settings.limits.energy_max = 40.0;

@@ -277,13 +277,17 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
             })
             .count() as isize
     };
-    let total = b.floquet.pairs.len() as isize - a.floquet.pairs.len() as isize;
-    let edges = edge(&b.floquet) - edge(&a.floquet);
-    let resolution = if total * edges > 0 {
-        total.abs().min(edges.abs()) as usize
-    } else {
-        0
+    // How many of `x` moves are the same pairs as `y` moves (both counts changing the same
+    // way): the smaller change, or none.
+    let shared = |x: isize, y: isize| {
+        if x * y > 0 {
+            x.abs().min(y.abs()) as usize
+        } else {
+            0
+        }
     };
+    let total = b.floquet.pairs.len() as isize - a.floquet.pairs.len() as isize;
+    let resolution = shared(total, edge(&b.floquet) - edge(&a.floquet));
     // A pair already beyond ±1 within the stability tolerance (classed elliptic, its
     // invariant past ±2), or resting there, that leaves the tolerance band changes its
     // verdict, not the pattern: detect() sees no crossing, counting such pairs beyond ±2 at
@@ -302,12 +306,7 @@ pub(crate) fn unexplained(a: &BranchPoint, b: &BranchPoint, crossings: &[Crossin
                 .count() as isize
         };
         let grew = count(&b.floquet, real) as isize - count(&a.floquet, real) as isize;
-        let left = band(&b.floquet) - band(&a.floquet);
-        if grew * left < 0 {
-            grew.abs().min(left.abs()) as usize
-        } else {
-            0
-        }
+        shared(grew, band(&a.floquet) - band(&b.floquet))
     };
     let (to_plus, to_minus) = (
         drift(2.0, PairKind::PositiveReal),
